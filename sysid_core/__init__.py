@@ -1,0 +1,45 @@
+"""sysid-toolkit core: identify and tune electrostatically tuned vibratory gyros.
+
+Implements Kim & M'Closkey, "A systematic method for tuning the dynamics of electrostatically
+actuated vibratory gyros", IEEE TCST 14(1), 2006. Components (model structures, objectives,
+solvers, devices, tuning criteria) are plugins; see :mod:`sysid_core.hookspec`.
+"""
+
+from sysid_core.data import (
+    check_rank_condition,
+    load_dataset,
+    make_dataset,
+    save_dataset,
+    to_frd,
+    validate,
+)
+from sysid_core.errors import SysidError
+from sysid_core.fit import fit
+from sysid_core.hookspec import hookimpl, hookspec
+from sysid_core.interfaces import Device, ModelStructure, Objective, Solver, TuningCriterion
+from sysid_core.model import FittedModel, load_model
+from sysid_core.registry import get_registry
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Device",
+    "FittedModel",
+    "ModelStructure",
+    "Objective",
+    "Solver",
+    "SysidError",
+    "TuningCriterion",
+    "__version__",
+    "check_rank_condition",
+    "fit",
+    "get_registry",
+    "hookimpl",
+    "hookspec",
+    "load_dataset",
+    "load_model",
+    "make_dataset",
+    "save_dataset",
+    "to_frd",
+    "validate",
+]

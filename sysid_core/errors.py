@@ -1,0 +1,112 @@
+"""The toolkit's exception hierarchy.
+
+Every error the toolkit raises on purpose is a :class:`SysidError`. Each also subclasses the
+builtin exception a caller would naturally catch (``ValueError`` for bad input, ``LookupError`` for
+unknown names, ``RuntimeError`` for failed computations), so code that does not know this module
+still works. Messages say what was wrong and how to fix it; the command-line program prints them
+as one line.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "BiasLimitError",
+    "ConfigError",
+    "DataError",
+    "DeviceError",
+    "DimensionError",
+    "FitError",
+    "FrequencyGridError",
+    "MissingBiasError",
+    "NonFiniteDataError",
+    "PluginError",
+    "PluginNotFoundError",
+    "RankConditionError",
+    "SolverError",
+    "SysidError",
+    "TooFewExperimentsError",
+    "UnreachableTuningError",
+]
+
+
+class SysidError(Exception):
+    """Base class of every error raised on purpose by sysid-toolkit."""
+
+
+class ConfigError(SysidError, ValueError):
+    """A configuration file or option is invalid (unknown key, wrong type, bad value)."""
+
+
+class DataError(SysidError, ValueError):
+    """A frequency-response data set is not usable."""
+
+
+class NonFiniteDataError(DataError):
+    """The data contain NaN or infinite values where a measurement is expected."""
+
+
+class DimensionError(DataError):
+    """Wrong dimensions, shapes or coordinates."""
+
+
+class FrequencyGridError(DataError):
+    """Frequencies are not strictly increasing, are duplicated, or are not positive."""
+
+
+class MissingBiasError(DataError):
+    """The bias potentials of some experiment or electrode are missing."""
+
+
+class TooFewExperimentsError(DataError):
+    """Fewer than ``n_e + 1`` experiments: the stiffness matrices cannot be identified."""
+
+
+class RankConditionError(DataError):
+    """The experiment design violates the rank condition (6) of Kim & M'Closkey (2006)."""
+
+
+class PluginError(SysidError):
+    """A plugin is broken or inconsistent."""
+
+
+class PluginNotFoundError(PluginError, LookupError):
+    """A component name was asked for that no installed plugin provides."""
+
+
+class SolverError(SysidError, RuntimeError):
+    """A conic solver failed or returned an inaccurate answer."""
+
+    def __init__(self, message: str, status: str | None = None) -> None:
+        super().__init__(message)
+        self.status = status
+
+
+class FitError(SysidError, RuntimeError):
+    """The model fit could not be completed."""
+
+
+class DeviceError(SysidError, RuntimeError):
+    """A device failed while measuring (an exception, a timeout, bad output)."""
+
+
+class BiasLimitError(SysidError, ValueError):
+    """A bias outside the device's limits was about to be applied. It never is."""
+
+
+class UnreachableTuningError(SysidError, RuntimeError):
+    """The tuning goal cannot be reached inside the device's bias limits.
+
+    Attributes
+    ----------
+    best_bias : list of float or None
+        The bias (volts) achieving the best reachable value.
+    best_value : float or None
+        The best reachable split or frequency error (Hz).
+    """
+
+    def __init__(
+        self, message: str, best_bias: list[float] | None = None, best_value: float | None = None
+    ) -> None:
+        super().__init__(message)
+        self.best_bias = best_bias
+        self.best_value = best_value

@@ -1,0 +1,421 @@
+"""The fit problem: scaled data, the linear equation-error operator, and conic-program pieces.
+
+Scaling (DESIGN.md §1). With the band centre :math:`\\omega_0`, :math:`\\Omega=\\omega/\\omega_0`,
+:math:`\\delta=\\Omega^2-1` and :math:`\\varepsilon=\\max|\\delta|`, the unknowns are written
+
+.. math::
+
+    K_c = \\omega_0^2 (M + \\varepsilon \\tilde D_0),\\quad
+    K_p = \\omega_0^2 \\varepsilon \\tilde K_p / s_p,\\quad
+    C = \\omega_0 \\varepsilon \\tilde C,\\quad
+    P(\\nu) = s_\\psi \\textstyle\\sum_l \\tilde P_l \\nu^l,
+
+where :math:`K_c = K_0 + \\sum_p K_p \\bar w_p` is the stiffness at the mean squared potentials
+:math:`\\bar w`, :math:`\\tilde w_p = (w_p - \\bar w_p)/s_p`, and
+:math:`\\nu = (\\omega-\\omega_0)/h` with :math:`h=\\max|\\omega-\\omega_0|`. Then
+:math:`Z = \\omega_0^2\\varepsilon\\,\\tilde Z` with
+:math:`\\tilde Z = \\tilde D_0 + \\sum_p \\tilde w_p \\tilde K_p - (\\delta/\\varepsilon) M +
+j\\Omega\\tilde C`, and with :math:`\\tilde\\psi = \\psi\\,\\omega_0^2\\varepsilon/s_\\psi` the
+equation error is :math:`E = s_\\psi (\\tilde P - \\tilde\\psi\\tilde Z)` (act) or
+:math:`s_\\psi(\\tilde P - \\tilde Z\\tilde\\psi)` (sen). Every unknown is then O(1e-3 … 1); the
+centring removes the near-cancellation of :math:`M\\omega^2` and :math:`K_0`.
+
+The scaled unknowns form the vector :math:`\\theta` (layout in :class:`ParameterLayout`), and the
+equation error at every data point is linear in it: :math:`E_i = G_i\\theta`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import TYPE_CHECKING
+
+import numpy as np
+import scipy.sparse as sp
+import xarray as xr
+
+from sysid_core.conic import SQRT2, svec_indices
+from sysid_core.data import measured_mask, validate
+
+if TYPE_CHECKING:
+    from sysid_core.interfaces import ModelStructure
+    from sysid_core.model import FittedModel
+
+__all__ = [
+    "EPS_DAMPING",
+    "EPS_STIFFNESS",
+    "FitProblem",
+    "ObjectiveResult",
+    "ParameterLayout",
+    "Scaling",
+    "sigma_max_2x2",
+]
+
+#: Strict inequality C > 0 becomes C ⪰ EPS_DAMPING·ω0·ε·I (scaled: C̃ ⪰ EPS_DAMPING·I);
+#: it bounds Q below about 1/(ε·EPS_DAMPING) ≈ 1e9 for a 1.4 % band.
+EPS_DAMPING = 1e-8
+#: Strict inequality K(w_k) > 0 becomes K(w_k) ⪰ EPS_STIFFNESS·ω0²·I at every experiment's bias.
+EPS_STIFFNESS = 1e-6
+
+# Symmetric 2x2 basis: a symmetric matrix is x0*S0 + x1*S1 + x2*S2.
+SYM_BASIS = np.array([[[1.0, 0.0], [0.0, 0.0]], [[0.0, 1.0], [1.0, 0.0]], [[0.0, 0.0], [0.0, 1.0]]])
+# svec (lower, column-major, scaled) of x0*S0 + x1*S1 + x2*S2 is diag(1, sqrt2, 1) @ x.
+SVEC_SYM = np.diag([1.0, SQRT2, 1.0])
+
+
+def sym(v: np.ndarray) -> np.ndarray:
+    """The symmetric 2x2 matrix with entries ``[[v0, v1], [v1, v2]]``."""
+    return np.tensordot(np.asarray(v, dtype=float), SYM_BASIS, axes=1)
+
+
+def sigma_max_2x2(e: np.ndarray) -> np.ndarray:
+    """Largest singular value of each complex 2x2 matrix in ``e`` (shape ``(..., 2, 2)``)."""
+    fro2 = np.sum(np.abs(e) ** 2, axis=(-2, -1))
+    det = e[..., 0, 0] * e[..., 1, 1] - e[..., 0, 1] * e[..., 1, 0]
+    disc = np.sqrt(np.maximum(fro2**2 - 4 * np.abs(det) ** 2, 0.0))
+    return np.sqrt(0.5 * (fro2 + disc))
+
+
+@dataclass(frozen=True)
+class ParameterLayout:
+    """Positions of the scaled unknowns in ``theta``.
+
+    Order: ``M`` (3: m11, m12, m22), ``C~`` (3), ``D~0`` (3), ``K~_p`` (3 per electrode), then per
+    polynomial degree ``l``: real parts of ``P~_l`` (4, row-major) and imaginary parts (4).
+    """
+
+    n_electrodes: int
+    order: int
+
+    @property
+    def n_z(self) -> int:
+        """Number of unknowns of ``Z`` (real)."""
+        return 9 + 3 * self.n_electrodes
+
+    @property
+    def n(self) -> int:
+        """Total number of real unknowns."""
+        return self.n_z + 8 * (self.order + 1)
+
+    M = slice(0, 3)
+    C = slice(3, 6)
+    D = slice(6, 9)
+
+    def K(self, p: int) -> slice:
+        """Slice of electrode ``p``'s stiffness."""
+        return slice(9 + 3 * p, 12 + 3 * p)
+
+    def poly(self, degree: int) -> slice:
+        """Slice of the 8 reals of ``P~_degree`` (4 real parts then 4 imaginary parts)."""
+        start = self.n_z + 8 * degree
+        return slice(start, start + 8)
+
+    def names(self) -> list[str]:
+        """Human-readable name of each unknown."""
+        names = [f"{m}{ij}" for m in ("M", "C", "D0") for ij in ("11", "12", "22")]
+        names += [f"K{p + 1}_{ij}" for p in range(self.n_electrodes) for ij in ("11", "12", "22")]
+        for deg in range(self.order + 1):
+            names += [f"P{deg}_{part}{ij}" for part in ("re", "im") for ij in ("11", "12", "21", "22")]
+        return names
+
+
+@dataclass(frozen=True)
+class Scaling:
+    """The constants that make the fit well conditioned (see the module docstring)."""
+
+    omega0: float
+    eps: float
+    nu_half: float
+    w_center: np.ndarray
+    w_scale: np.ndarray
+    psi_scale: float
+
+    @classmethod
+    def from_data(cls, omega: np.ndarray, w: np.ndarray, psi: np.ndarray) -> Scaling:
+        """Choose the scaling for frequencies ``omega`` (rad/s), squared potentials ``w``
+        ``(n_exp, n_e)`` and responses ``psi`` ``(N, 2, 2)``."""
+        omega0 = 0.5 * (omega.min() + omega.max())
+        delta = (omega / omega0) ** 2 - 1
+        eps = float(np.abs(delta).max())
+        nu_half = float(np.abs(omega - omega0).max())
+        w_center = w.mean(axis=0)
+        spread = np.abs(w - w_center).max(axis=0)
+        w_scale = np.where(spread > 0, spread, 1.0)
+        psi_scale = float(np.median(sigma_max_2x2(psi))) * omega0**2 * eps
+        if not np.isfinite(psi_scale) or psi_scale <= 0:
+            psi_scale = 1.0
+        return cls(float(omega0), eps, nu_half, w_center, w_scale, psi_scale)
+
+
+@dataclass
+class ObjectiveResult:
+    """What an objective returns: the scaled solution and how it was reached.
+
+    Attributes
+    ----------
+    theta : ndarray
+        Scaled unknowns.
+    gamma : float
+        Optimal minimax value γ* (scaled units); for least squares, the largest residual.
+    max_residual : float
+        Largest σ̄(E) over all data points at ``theta`` (scaled units).
+    certified : bool
+        ``max_residual`` was checked on every data point against the objective's bound.
+    objective : str
+        Name of the objective.
+    solves : int
+        Number of conic solves.
+    working_set : int
+        Number of data points in the last program (all points for a full program).
+    iterations : int
+        Total solver iterations.
+    info : dict
+        Anything else worth reporting.
+    """
+
+    theta: np.ndarray
+    gamma: float
+    max_residual: float
+    certified: bool
+    objective: str
+    solves: int = 1
+    working_set: int = 0
+    iterations: int = 0
+    info: dict[str, object] = field(default_factory=dict)
+
+
+class FitProblem:
+    """Data and structure, scaled, with the linear map from unknowns to equation errors.
+
+    Parameters
+    ----------
+    dataset : xarray.Dataset
+        Validated data (see :mod:`sysid_core.data`).
+    structure : ModelStructure
+        The model structure (``act`` or ``sen``) with its polynomial order.
+    """
+
+    def __init__(self, dataset: xr.Dataset, structure: ModelStructure) -> None:
+        validate(dataset)
+        self.dataset = dataset
+        self.structure = structure
+        self.electrodes = [str(e) for e in dataset["electrode"].values]
+        self.structure_potential = float(dataset.attrs["structure_potential"])
+        self.bias = np.asarray(dataset["bias"].values, dtype=float)
+        self.layout = ParameterLayout(len(self.electrodes), structure.order)
+        mask = measured_mask(dataset)
+        f = np.asarray(dataset["frequency"].values, dtype=float)
+        k_idx, q_idx = np.nonzero(mask)
+        self.experiment = k_idx
+        self.frequency_hz = f[q_idx]
+        self.psi = np.asarray(dataset["response"].values)[k_idx, q_idx]
+        self.w = (self.structure_potential - self.bias) ** 2
+        self.omega = 2 * np.pi * self.frequency_hz
+        self.scaling = Scaling.from_data(self.omega, self.w, self.psi)
+        self.G = self._operator()
+
+    @property
+    def n_points(self) -> int:
+        """Number of data points (all experiments)."""
+        return int(self.psi.shape[0])
+
+    @property
+    def n_experiments(self) -> int:
+        """Number of experiments."""
+        return int(self.bias.shape[0])
+
+    @property
+    def n_parameters(self) -> int:
+        """Number of real unknowns (the scaled ``theta``)."""
+        return self.layout.n
+
+    def scaled_w(self) -> np.ndarray:
+        """Scaled squared potentials ``w~`` per experiment, ``(n_exp, n_e)``."""
+        s = self.scaling
+        return (self.w - s.w_center) / s.w_scale
+
+    def _operator(self) -> np.ndarray:
+        """``G`` with shape ``(N, 8, n)``: rows Re E11..E22 then Im E11..E22."""
+        s, lay = self.scaling, self.layout
+        n_pts = self.n_points
+        big_omega = self.omega / s.omega0
+        d_eps = (big_omega**2 - 1) / s.eps
+        nu = (self.omega - s.omega0) / s.nu_half
+        psi_t = self.psi * (s.omega0**2 * s.eps / s.psi_scale)
+        wt = self.scaled_w()[self.experiment]  # (N, n_e)
+        # product(psi~, S_a) for the three symmetric basis matrices: (N, 3, 2, 2)
+        prod = self.structure.product(psi_t[:, None], SYM_BASIS[None].astype(complex))
+        g = np.zeros((n_pts, 2, 2, lay.n), dtype=complex)
+        # Z~ = D~ + sum w~ K~ - (delta/eps) M + j Omega C~ ; E = P~ - product(psi~, Z~)
+        coef = [
+            (lay.M, -d_eps.astype(complex)),
+            (lay.C, 1j * big_omega),
+            (lay.D, np.ones(n_pts, dtype=complex)),
+        ]
+        coef += [(lay.K(p), wt[:, p].astype(complex)) for p in range(lay.n_electrodes)]
+        for sl, c in coef:
+            for a in range(3):
+                g[:, :, :, sl.start + a] = -c[:, None, None] * prod[:, a]
+        for deg in range(lay.order + 1):
+            sl = lay.poly(deg)
+            nu_l = nu**deg
+            for e in range(4):
+                r, c = divmod(e, 2)
+                g[:, r, c, sl.start + e] = nu_l
+                g[:, r, c, sl.start + 4 + e] = 1j * nu_l
+        flat = g.reshape(n_pts, 4, lay.n)
+        return np.ascontiguousarray(np.concatenate([flat.real, flat.imag], axis=1))
+
+    # ----------------------------------------------------------------- evaluation
+    def errors(self, theta: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+        """Complex equation errors ``(N, 2, 2)`` in scaled units at ``theta``."""
+        g = self.G if points is None else self.G[points]
+        e = g @ theta
+        return (e[:, :4] + 1j * e[:, 4:]).reshape(-1, 2, 2)
+
+    def residuals(self, theta: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+        """σ̄(E) at every data point (scaled units)."""
+        return sigma_max_2x2(self.errors(theta, points))
+
+    @cached_property
+    def gram(self) -> np.ndarray:
+        """``sum_i G_i^T G_i / N``: the least-squares objective is ``theta^T gram theta``."""
+        g = self.G.reshape(-1, self.layout.n)
+        return (g.T @ g) / self.n_points
+
+    # ----------------------------------------------------------------- conic pieces
+    def structural_constraints(self, n_x: int) -> tuple[sp.csr_matrix, np.ndarray, list[int]]:
+        """Rows ``(A, b)`` and PSD sizes for M ⪰ I, C ⪰ εI, K_p ⪯ 0 and K(w_k) ⪰ εI.
+
+        ``n_x`` is the number of variables (``theta`` first); all cones are 2x2 PSD.
+        """
+        lay = self.layout
+        eye_svec = np.array([1.0, 0.0, 1.0])
+        blocks: list[tuple[list[tuple[slice, np.ndarray]], np.ndarray]] = [
+            ([(lay.M, -SVEC_SYM)], -eye_svec),
+            ([(lay.C, -SVEC_SYM)], -EPS_DAMPING * eye_svec),
+        ]
+        blocks += [([(lay.K(p), SVEC_SYM)], np.zeros(3)) for p in range(lay.n_electrodes)]
+        eps = self.scaling.eps
+        for wk in self.scaled_w():
+            terms = [(lay.M, -SVEC_SYM), (lay.D, -eps * SVEC_SYM)]
+            terms += [(lay.K(p), -eps * wk[p] * SVEC_SYM) for p in range(lay.n_electrodes)]
+            blocks.append((terms, -EPS_STIFFNESS * eye_svec))
+        a = np.zeros((3 * len(blocks), n_x))
+        b = np.zeros(3 * len(blocks))
+        for i, (terms, off) in enumerate(blocks):
+            for sl, mat in terms:
+                a[3 * i : 3 * i + 3, sl] = mat
+            b[3 * i : 3 * i + 3] = off
+        return sp.csr_matrix(a), b, [2] * len(blocks)
+
+    #: Extra free variables per point in :meth:`minimax_rows` (the anti-Hermitian slack).
+    SLACK_PER_POINT = 20
+
+    def minimax_rows(
+        self, points: np.ndarray, n_x: int, gamma_col: int, slack_col: int
+    ) -> sp.csr_matrix:
+        """Rows of the LMIs σ̄(E_i) ≤ γ for the given points, as 8x8 real PSD cones.
+
+        σ̄(E) ≤ γ iff the Hermitian ``H = [[γI, E^H], [E, γI]] = A + jB ⪰ 0``, iff its real
+        embedding ``X = [[A, -B], [B, A]] ⪰ 0`` (rows ordered Re v, Im v). ``X`` commutes with
+        the complex structure ``J = [[0, -I], [I, 0]]``, and the dual of such a cone is degenerate
+        in the 20 directions that anticommute with ``J``: interior-point solvers then stall
+        (Clarabel ends "AlmostSolved" on noisy data). The cone is therefore written
+        ``X + N ⪰ 0`` with a free ``N = [[Cn, Dn], [Dn, -Cn]]`` (``Cn``, ``Dn`` symmetric 4x4),
+        which is equivalent (average with ``J^T (X + N) J = X - N``) and removes the degeneracy.
+        The ``N`` of point ``i`` takes columns ``slack_col + 20 i ...``; ``b`` of these rows is 0.
+        """
+        points = np.asarray(points, dtype=np.int64)
+        k, n = points.size, self.layout.n
+        idx = svec_indices(8)
+        # Entries of X driven by E: (row, col, G-row, sign)
+        spec: list[tuple[int, int, int, float]] = []
+        for a in (0, 1):
+            for bb in (0, 1):
+                spec.append((2 + a, bb, 2 * a + bb, 1.0))  # A: Re E
+                spec.append((6 + a, 4 + bb, 2 * a + bb, 1.0))  # A again
+                spec.append((6 + a, bb, 4 + 2 * a + bb, 1.0))  # B[2+a, b] = Im E[a, b]
+                spec.append((4 + a, 2 + bb, 4 + 2 * bb + a, -1.0))  # B[a, 2+b] = -Im E[b, a]
+        rows_e = np.array([idx[r, c] for r, c, _, _ in spec])
+        grow = [g for _, _, g, _ in spec]
+        sign = np.array([sg for _, _, _, sg in spec])
+        coef = self.G[points][:, grow, :] * (-SQRT2 * sign)[None, :, None]  # (k, 16, n)
+        base = (np.arange(k) * 36)[:, None]
+        r_e = np.broadcast_to((base + rows_e)[:, :, None], coef.shape)
+        c_e = np.broadcast_to(np.arange(n)[None, None, :], coef.shape)
+        diag_rows = base + np.array([idx[d, d] for d in range(8)])[None, :]
+        # Slack N: (row, local column, coefficient in A)
+        slack: list[tuple[int, int, float]] = []
+        j = 0
+        for r in range(4):
+            for c in range(r + 1):
+                sc = 1.0 if r == c else SQRT2
+                slack += [(idx[r, c], j, -sc), (idx[4 + r, 4 + c], j, sc)]
+                j += 1
+        for r in range(4):
+            for c in range(r + 1):
+                slack.append((idx[4 + r, c], j, -SQRT2))
+                if r != c:
+                    slack.append((idx[4 + c, r], j, -SQRT2))
+                j += 1
+        s_rows = base + np.array([t[0] for t in slack])[None, :]
+        s_cols = slack_col + (np.arange(k) * self.SLACK_PER_POINT)[:, None] + np.array(
+            [t[1] for t in slack]
+        )[None, :]
+        s_vals = np.broadcast_to(np.array([t[2] for t in slack])[None, :], s_rows.shape)
+        rows = np.concatenate([r_e.ravel(), diag_rows.ravel(), s_rows.ravel()])
+        cols = np.concatenate(
+            [c_e.ravel(), np.full(diag_rows.size, gamma_col), s_cols.ravel()]
+        )
+        vals = np.concatenate([coef.ravel(), np.full(diag_rows.size, -1.0), s_vals.ravel()])
+        keep = vals != 0
+        return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(36 * k, n_x))
+
+    def to_model(self, result: ObjectiveResult, **meta: object) -> FittedModel:
+        """Map a scaled solution back to physical units as a :class:`FittedModel`."""
+        from sysid_core.model import FittedModel
+
+        s, lay, th = self.scaling, self.layout, result.theta
+        m = sym(th[lay.M])
+        c = s.omega0 * s.eps * sym(th[lay.C])
+        kp = np.array(
+            [s.omega0**2 * s.eps * sym(th[lay.K(p)]) / s.w_scale[p] for p in range(lay.n_electrodes)]
+        )
+        k_center = s.omega0**2 * (m + s.eps * sym(th[lay.D]))
+        k0 = k_center - np.tensordot(s.w_center, kp, axes=1) if len(kp) else k_center
+        poly = np.array(
+            [
+                s.psi_scale
+                * (th[lay.poly(d)][:4] + 1j * th[lay.poly(d)][4:]).reshape(2, 2)
+                for d in range(lay.order + 1)
+            ]
+        )
+        return FittedModel(
+            structure=self.structure,
+            M=m,
+            C=c,
+            K0=k0,
+            Kp=kp,
+            poly=poly,
+            omega_center=s.omega0,
+            omega_half=s.nu_half,
+            electrodes=self.electrodes,
+            structure_potential=self.structure_potential,
+            gamma=result.gamma * s.psi_scale,
+            max_residual=result.max_residual * s.psi_scale,
+            meta={
+                "objective": result.objective,
+                "certified": result.certified,
+                "solves": result.solves,
+                "working_set": result.working_set,
+                "solver_iterations": result.iterations,
+                "n_points": self.n_points,
+                "n_experiments": self.n_experiments,
+                "n_parameters": self.n_parameters,
+                "device": str(self.dataset.attrs.get("device", "unknown")),
+                "band_hz": [float(self.frequency_hz.min()), float(self.frequency_hz.max())],
+                "fit_bias": self.bias.tolist(),
+                **meta,
+            },
+        )
