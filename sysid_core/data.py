@@ -139,8 +139,11 @@ def make_dataset(
 
 
 def experiment_from_measurement(
-    measurement: xr.DataArray, bias: Sequence[float], electrodes: Sequence[str],
-    structure_potential: float, device: str = "unknown",
+    measurement: xr.DataArray,
+    bias: Sequence[float],
+    electrodes: Sequence[str],
+    structure_potential: float,
+    device: str = "unknown",
 ) -> xr.Dataset:
     """Wrap one device measurement (dims frequency, output, input) as a one-experiment data set."""
     if tuple(measurement.dims) != ("frequency", "output", "input"):
@@ -314,7 +317,9 @@ def validate(ds: xr.Dataset) -> xr.Dataset:
     if missing.size:
         k, p = missing[0]
         name = electrodes[p] if electrodes else p
-        raise MissingBiasError(f"bias of experiment {k}, electrode {name} is missing ({bias[k, p]})")
+        raise MissingBiasError(
+            f"bias of experiment {k}, electrode {name} is missing ({bias[k, p]})"
+        )
     vg = ds.attrs.get("structure_potential")
     if vg is None or not np.isfinite(float(vg)):
         raise MissingBiasError(
@@ -330,9 +335,9 @@ def validate(ds: xr.Dataset) -> xr.Dataset:
         k, q = bad_points[0]
         o, i = np.argwhere(~np.isfinite(values[k, q]))[0]
         raise NonFiniteDataError(
-            f"response of experiment {k} at {f[q]} Hz (output {o}, input {i}) is {values[k, q, o, i]}"
-            f"; {len(bad_points)} point(s) in all are not finite. Remeasure them or mark them "
-            "unmeasured with the 'measured' variable"
+            f"response of experiment {k} at {f[q]} Hz (output {o}, input {i}) is "
+            f"{values[k, q, o, i]}; {len(bad_points)} point(s) in all are not finite. "
+            "Remeasure them or mark them unmeasured with the 'measured' variable"
         )
     empty = np.flatnonzero(mask.sum(axis=1) < 2)
     if empty.size:

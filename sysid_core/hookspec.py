@@ -111,4 +111,3 @@ KIND_HOOKS: dict[str, str] = {
     "solver": "sysid_solvers",
     "tuning criterion": "sysid_tuning_criteria",
 }
-

@@ -46,9 +46,7 @@ def check_options(kind: str, name: str, given: dict[str, Any], allowed: Sequence
     for key in given:
         if key not in allowed:
             known = ", ".join(sorted(allowed)) or "none"
-            raise ConfigError(
-                f"unknown option {key!r} for {kind} {name!r}; known options: {known}"
-            )
+            raise ConfigError(f"unknown option {key!r} for {kind} {name!r}; known options: {known}")
 
 
 class ModelStructure(ABC):

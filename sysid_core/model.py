@@ -160,7 +160,9 @@ class FittedModel:
         om = np.asarray(omega, dtype=float)[:, None, None]
         return -self.M * om**2 + self.stiffness(bias) + 1j * om * self.C
 
-    def response(self, frequencies_hz: np.ndarray, bias: Sequence[float] | None = None) -> np.ndarray:
+    def response(
+        self, frequencies_hz: np.ndarray, bias: Sequence[float] | None = None
+    ) -> np.ndarray:
         """Model frequency response ``(N, 2, 2)`` at ``bias`` and ``frequencies_hz``."""
         omega = 2 * np.pi * np.atleast_1d(np.asarray(frequencies_hz, dtype=float))
         return self.structure.response(self.polynomial(omega), self.z(omega, bias))

@@ -115,7 +115,9 @@ class ParameterLayout:
         names = [f"{m}{ij}" for m in ("M", "C", "D0") for ij in ("11", "12", "22")]
         names += [f"K{p + 1}_{ij}" for p in range(self.n_electrodes) for ij in ("11", "12", "22")]
         for deg in range(self.order + 1):
-            names += [f"P{deg}_{part}{ij}" for part in ("re", "im") for ij in ("11", "12", "21", "22")]
+            names += [
+                f"P{deg}_{part}{ij}" for part in ("re", "im") for ij in ("11", "12", "21", "22")
+            ]
         return names
 
 
@@ -283,6 +285,25 @@ class FitProblem:
         g = self.G.reshape(-1, self.layout.n)
         return (g.T @ g) / self.n_points
 
+    @cached_property
+    def objective_scale(self) -> float:
+        """A typical value of ``theta^T gram theta`` near the optimum (for conditioning).
+
+        The minimum with ``M = I`` fixed and every other unknown free: a linear solve. Quadratic
+        objectives are divided by it so that their optimal value is O(1) whatever the noise
+        level (an O(1e-8) optimum stalls interior-point solvers at their absolute tolerances).
+        """
+        g = self.gram
+        m = np.zeros(self.layout.n, dtype=bool)
+        m[self.layout.M] = True
+        fixed = np.array([1.0, 0.0, 1.0])
+        rhs = -g[np.ix_(~m, m)] @ fixed
+        free, *_ = np.linalg.lstsq(g[np.ix_(~m, ~m)], rhs, rcond=None)
+        theta = np.zeros(self.layout.n)
+        theta[m], theta[~m] = fixed, free
+        value = float(theta @ g @ theta)
+        return value if np.isfinite(value) and value > 1e-300 else 1.0
+
     # ----------------------------------------------------------------- conic pieces
     def structural_constraints(self, n_x: int) -> tuple[sp.csr_matrix, np.ndarray, list[int]]:
         """Rows ``(A, b)`` and PSD sizes for M ⪰ I, C ⪰ εI, K_p ⪯ 0 and K(w_k) ⪰ εI.
@@ -313,7 +334,11 @@ class FitProblem:
     SLACK_PER_POINT = 20
 
     def minimax_rows(
-        self, points: np.ndarray, n_x: int, gamma_col: int, slack_col: int
+        self,
+        points: np.ndarray,
+        n_x: int,
+        gamma_col: int,
+        slack_col: int,
     ) -> sp.csr_matrix:
         """Rows of the LMIs σ̄(E_i) ≤ γ for the given points, as 8x8 real PSD cones.
 
@@ -340,7 +365,7 @@ class FitProblem:
         rows_e = np.array([idx[r, c] for r, c, _, _ in spec])
         grow = [g for _, _, g, _ in spec]
         sign = np.array([sg for _, _, _, sg in spec])
-        coef = self.G[points][:, grow, :] * (-SQRT2 * sign)[None, :, None]  # (k, 16, n)
+        coef = self.G[points][:, grow, :] * (-SQRT2 * sign)[None, :, None]
         base = (np.arange(k) * 36)[:, None]
         r_e = np.broadcast_to((base + rows_e)[:, :, None], coef.shape)
         c_e = np.broadcast_to(np.arange(n)[None, None, :], coef.shape)
@@ -360,14 +385,14 @@ class FitProblem:
                     slack.append((idx[4 + c, r], j, -SQRT2))
                 j += 1
         s_rows = base + np.array([t[0] for t in slack])[None, :]
-        s_cols = slack_col + (np.arange(k) * self.SLACK_PER_POINT)[:, None] + np.array(
-            [t[1] for t in slack]
-        )[None, :]
+        s_cols = (
+            slack_col
+            + (np.arange(k) * self.SLACK_PER_POINT)[:, None]
+            + np.array([t[1] for t in slack])[None, :]
+        )
         s_vals = np.broadcast_to(np.array([t[2] for t in slack])[None, :], s_rows.shape)
         rows = np.concatenate([r_e.ravel(), diag_rows.ravel(), s_rows.ravel()])
-        cols = np.concatenate(
-            [c_e.ravel(), np.full(diag_rows.size, gamma_col), s_cols.ravel()]
-        )
+        cols = np.concatenate([c_e.ravel(), np.full(diag_rows.size, gamma_col), s_cols.ravel()])
         vals = np.concatenate([coef.ravel(), np.full(diag_rows.size, -1.0), s_vals.ravel()])
         keep = vals != 0
         return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(36 * k, n_x))
@@ -380,14 +405,16 @@ class FitProblem:
         m = sym(th[lay.M])
         c = s.omega0 * s.eps * sym(th[lay.C])
         kp = np.array(
-            [s.omega0**2 * s.eps * sym(th[lay.K(p)]) / s.w_scale[p] for p in range(lay.n_electrodes)]
+            [
+                s.omega0**2 * s.eps * sym(th[lay.K(p)]) / s.w_scale[p]
+                for p in range(lay.n_electrodes)
+            ]
         )
         k_center = s.omega0**2 * (m + s.eps * sym(th[lay.D]))
         k0 = k_center - np.tensordot(s.w_center, kp, axes=1) if len(kp) else k_center
         poly = np.array(
             [
-                s.psi_scale
-                * (th[lay.poly(d)][:4] + 1j * th[lay.poly(d)][4:]).reshape(2, 2)
+                s.psi_scale * (th[lay.poly(d)][:4] + 1j * th[lay.poly(d)][4:]).reshape(2, 2)
                 for d in range(lay.order + 1)
             ]
         )

@@ -92,7 +92,9 @@ class Registry:
                 continue
             self.register(plugin, name=ep.name, distribution=dist)
 
-    def register(self, plugin: object, name: str | None = None, distribution: str = "local") -> None:
+    def register(
+        self, plugin: object, name: str | None = None, distribution: str = "local"
+    ) -> None:
         """Register a plugin module or object (as a built-in or third-party plugin would be)."""
         registered = self._pm.register(plugin, name=name)
         if registered is None:

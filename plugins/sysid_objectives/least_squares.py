@@ -32,7 +32,7 @@ class LeastSquares(Objective):
         self, problem: FitProblem, solver: Solver, progress: ProgressCallback | None = None
     ) -> ObjectiveResult:
         sol = solver.solve(least_squares_program(problem))
-        theta = sol.x
+        theta = sol.x[: problem.n_parameters]
         r = problem.residuals(theta)
         return ObjectiveResult(
             theta=theta,
@@ -43,5 +43,8 @@ class LeastSquares(Objective):
             solves=1,
             working_set=problem.n_points,
             iterations=sol.iterations,
-            info={"mean_square": float(theta @ problem.gram @ theta), "rms": float(np.sqrt(np.mean(r**2)))},
+            info={
+                "mean_square": float(theta @ problem.gram @ theta),
+                "rms": float(np.sqrt(np.mean(r**2))),
+            },
         )

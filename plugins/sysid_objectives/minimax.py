@@ -6,12 +6,16 @@ from typing import Any
 
 import numpy as np
 
-from sysid_core.errors import FitError
+from sysid_core.errors import FitError, SolverError
 from sysid_core.interfaces import Objective, ProgressCallback, Solver, check_options
 from sysid_core.problem import FitProblem, ObjectiveResult
 from sysid_core.programs import least_squares_program, minimax_program, tie_break_program
 
 __all__ = ["Minimax"]
+
+#: Residuals below this (scaled units, where the feedthrough polynomial is O(1)) are exact fits to
+#: solver precision: the certificate allows it as an absolute slack, and the tie-break is skipped.
+_FLOOR = 1e-8
 
 
 def _select(r: np.ndarray, bound: float, exclude: np.ndarray, batch: int, experiment: np.ndarray):
@@ -87,71 +91,128 @@ class Minimax(Objective):
         say = progress or (lambda _msg: None)
         solves = iterations = 0
         n_pts, n_par = problem.n_points, problem.n_parameters
+        # The least-squares fit (one cheap solve) sets the residual scale and the first points.
+        ls = solver.solve(least_squares_program(problem))
+        r = problem.residuals(ls.x[:n_par])
         if not self.working_set:
             points = np.arange(n_pts)
             sol = solver.solve(minimax_program(problem, points))
-            solves, iterations = 1, sol.iterations
+            solves, iterations = 2, ls.iterations + sol.iterations
             theta, gamma = sol.x[:n_par], float(sol.x[n_par])
             say(f"minimax (full program, {n_pts} points): gamma = {gamma:.6g}")
-            if self.tie_tol > 0:
-                sol = solver.solve(tie_break_program(problem, points, gamma * (1 + self.tie_tol)))
-                solves, iterations = 2, iterations + sol.iterations
+            if self.tie_tol > 0 and gamma > _FLOOR:
+                scale = max(float(theta @ problem.gram @ theta), _FLOOR**2)
+                sol = solver.solve(
+                    tie_break_program(problem, points, gamma * (1 + self.tie_tol), scale)
+                )
+                solves, iterations = 3, iterations + sol.iterations
                 theta = sol.x[:n_par]
             r = problem.residuals(theta)
             return ObjectiveResult(
-                theta=theta, gamma=gamma, max_residual=float(r.max()), certified=True,
-                objective=self.name, solves=solves, working_set=n_pts, iterations=iterations,
+                theta=theta,
+                gamma=gamma,
+                max_residual=float(r.max()),
+                certified=True,
+                objective=self.name,
+                solves=solves,
+                working_set=n_pts,
+                iterations=iterations,
                 info={"tie_tol": self.tie_tol},
             )
 
         batch = self.batch or max(8, problem.n_parameters // 2)
-        # Start from the largest residuals of the (cheap) least-squares fit, peaks first.
-        ls = solver.solve(least_squares_program(problem))
-        solves, iterations = 1, ls.iterations
-        r = problem.residuals(ls.x)
-        in_set = np.zeros(n_pts, dtype=bool)
-        sticky = np.zeros(n_pts, dtype=bool)
-        dropped = np.zeros(n_pts, dtype=bool)
-        in_set[_select(r, -np.inf, in_set, n_par + 1, problem.experiment)] = True
-        theta, gamma = ls.x, np.nan
-        stages = [("minimax", None)] + ([("tie-break", self.tie_tol)] if self.tie_tol > 0 else [])
-        for stage, tol in stages:
-            for round_ in range(1, self.max_rounds + 1):
-                points = np.flatnonzero(in_set)
-                if tol is None:
-                    sol = solver.solve(minimax_program(problem, points))
-                    gamma = float(sol.x[n_par])
-                    bound = gamma
-                else:
-                    bound = gamma * (1 + tol)
-                    sol = solver.solve(tie_break_program(problem, points, bound))
-                solves, iterations = solves + 1, iterations + sol.iterations
-                theta = sol.x[:n_par]
-                r = problem.residuals(theta)
-                add = _select(r, bound * (1 + self.cert_tol), in_set, batch, problem.experiment)
-                say(f"{stage} round {round_}: {points.size} points, gamma = {gamma:.6g}, "
-                    f"{add.size} added")
-                if add.size == 0:
-                    break
-                # Points far below the bound leave the set; one that comes back stays for good.
-                sticky[add[dropped[add]]] = True
-                in_set[add] = True
-                prune = in_set & ~sticky & (r < self.keep * bound)
-                dropped |= prune
-                in_set &= ~prune
-            else:
-                raise FitError(
-                    f"minimax {stage} working set did not converge in {self.max_rounds} rounds"
+        # Start from the largest residuals of the least-squares fit, peaks first.
+        ws = _WorkingSet(problem, solver, self, batch, say)
+        ws.in_set[_select(r, -np.inf, ws.in_set, n_par + 1, problem.experiment)] = True
+        ws.solves, ws.iterations, ws.r = 1, ls.iterations, r
+        theta, gamma, r = ws.run("minimax", None, None)
+        bound, tie = gamma, "not needed (exact fit)" if gamma <= _FLOOR else "disabled"
+        if self.tie_tol > 0 and gamma > _FLOOR:
+            try:
+                theta, _, r = ws.run(
+                    "tie-break",
+                    gamma * (1 + self.tie_tol),
+                    max(float(theta @ problem.gram @ theta), _FLOOR**2),
                 )
+                bound, tie = gamma * (1 + self.tie_tol), "done"
+            except SolverError as exc:
+                # Keep the certified minimax optimum rather than fail the whole fit.
+                tie = f"failed ({exc.status}); the minimax optimum is returned as found"
+                say(f"tie-break {tie}")
         max_r = float(r.max())
         return ObjectiveResult(
             theta=theta,
             gamma=gamma,
             max_residual=max_r,
-            certified=bool(max_r <= bound * (1 + self.cert_tol)),
+            certified=bool(max_r <= bound * (1 + self.cert_tol) + _FLOOR),
             objective=self.name,
-            solves=solves,
-            working_set=int(in_set.sum()),
-            iterations=iterations,
-            info={"tie_tol": self.tie_tol, "cert_tol": self.cert_tol},
+            solves=ws.solves,
+            working_set=int(ws.in_set.sum()),
+            iterations=ws.iterations,
+            info={"tie_tol": self.tie_tol, "cert_tol": self.cert_tol, "tie_break": tie},
         )
+
+
+class _WorkingSet:
+    """The growing (and pruned) set of data points of one minimax fit."""
+
+    def __init__(self, problem: FitProblem, solver: Solver, obj: Minimax, batch: int, say) -> None:
+        self.problem, self.solver, self.obj, self.batch, self.say = problem, solver, obj, batch, say
+        n = problem.n_points
+        self.in_set = np.zeros(n, dtype=bool)
+        self.sticky = np.zeros(n, dtype=bool)
+        self.dropped = np.zeros(n, dtype=bool)
+        self.solves = self.iterations = 0
+        self.r = np.zeros(n)
+
+    def run(self, stage: str, bound: float | None, scale: float | None):
+        """Solve the stage's program on the set until every point meets the bound.
+
+        ``bound=None``: the minimax stage (the bound is the optimal γ of each round).
+        Returns ``(theta, gamma, residuals)``.
+        """
+        pb, obj = self.problem, self.obj
+        n_par, n_pts = pb.n_parameters, pb.n_points
+        gamma = np.nan
+        for round_ in range(1, obj.max_rounds + 1):
+            points = np.flatnonzero(self.in_set)
+            try:
+                if bound is None:
+                    sol = self.solver.solve(minimax_program(pb, points))
+                else:
+                    sol = self.solver.solve(tie_break_program(pb, points, bound, scale))
+            except SolverError as exc:
+                # A small working set can make the program degenerate (a near-exact
+                # interpolation); more points fix that. With every point in, it is an error.
+                if points.size == n_pts or not str(exc.status).startswith("Almost"):
+                    raise
+                out = np.flatnonzero(~self.in_set)
+                grow = out[np.argsort(-self.r[out])][: self.batch]
+                self.in_set[grow] = self.sticky[grow] = True
+                self.say(
+                    f"{stage} round {round_}: solver status {exc.status} on {points.size} "
+                    f"points; retrying with {grow.size} more"
+                )
+                continue
+            self.solves += 1
+            self.iterations += sol.iterations
+            theta = sol.x[:n_par]
+            gamma = float(sol.x[n_par])
+            limit = gamma if bound is None else bound
+            self.r = r = pb.residuals(theta)
+            add = _select(
+                r, limit * (1 + obj.cert_tol) + _FLOOR, self.in_set, self.batch, pb.experiment
+            )
+            self.say(
+                f"{stage} round {round_}: {points.size} points, gamma = {gamma:.6g}, "
+                f"{add.size} added"
+            )
+            if add.size == 0:
+                return theta, gamma, r
+            # Points far below the bound leave the set; one that comes back stays for good.
+            self.sticky[add[self.dropped[add]]] = True
+            self.in_set[add] = True
+            prune = self.in_set & ~self.sticky & (r < obj.keep * limit)
+            self.dropped |= prune
+            self.in_set &= ~prune
+        raise FitError(f"minimax {stage} working set did not converge in {obj.max_rounds} rounds")

@@ -15,9 +15,21 @@ from sysid_core.interfaces import Solver
 __all__ = ["ScsSolver"]
 
 _KNOWN = {
-    "eps_abs", "eps_rel", "eps_infeas", "max_iters", "time_limit_secs", "verbose", "normalize",
-    "scale", "adaptive_scale", "rho_x", "alpha", "acceleration_lookback",
-    "acceleration_interval", "use_indirect", "gpu",
+    "eps_abs",
+    "eps_rel",
+    "eps_infeas",
+    "max_iters",
+    "time_limit_secs",
+    "verbose",
+    "normalize",
+    "scale",
+    "adaptive_scale",
+    "rho_x",
+    "alpha",
+    "acceleration_lookback",
+    "acceleration_interval",
+    "use_indirect",
+    "gpu",
 }
 
 
@@ -46,7 +58,11 @@ class ScsSolver(Solver):
                     f"unknown option {key!r} for solver 'scs'; known: {', '.join(sorted(_KNOWN))}"
                 )
         self.options = {
-            "eps_abs": 1e-7, "eps_rel": 1e-7, "max_iters": 200_000, "verbose": False, **options,
+            "eps_abs": 1e-7,
+            "eps_rel": 1e-7,
+            "max_iters": 200_000,
+            "verbose": False,
+            **options,
         }
 
     def solve(self, program: ConicProgram) -> ConicSolution:

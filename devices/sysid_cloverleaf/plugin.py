@@ -1,0 +1,15 @@
+"""Entry point of the ``cloverleaf`` device (entry-point group ``sysid``)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+from sysid_cloverleaf.device import CloverleafGyro
+from sysid_core.hookspec import hookimpl
+from sysid_core.interfaces import Device
+
+
+@hookimpl
+def sysid_devices() -> Mapping[str, Callable[..., Device]]:
+    """The simulated cloverleaf gyro."""
+    return {CloverleafGyro.name: CloverleafGyro}
