@@ -152,7 +152,10 @@ def fit_cmd(
 def _register_late_commands() -> None:
     """Commands defined in other modules (kept out of the import of this one)."""
     try:
-        from sysid_core import cli_tune  # noqa: F401
+        from sysid_core import (
+            cli_study,  # noqa: F401
+            cli_tune,  # noqa: F401
+        )
     except ImportError:  # pragma: no cover - during partial installs
         pass
 

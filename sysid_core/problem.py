@@ -409,7 +409,7 @@ class FitProblem:
                 s.omega0**2 * s.eps * sym(th[lay.K(p)]) / s.w_scale[p]
                 for p in range(lay.n_electrodes)
             ]
-        )
+        ).reshape(-1, 2, 2)
         k_center = s.omega0**2 * (m + s.eps * sym(th[lay.D]))
         k0 = k_center - np.tensordot(s.w_center, kp, axes=1) if len(kp) else k_center
         poly = np.array(

@@ -1,0 +1,207 @@
+"""The three tuning criteria of the paper, convex in the squared potentials ``w``."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from sysid_core.errors import ConfigError, UnreachableTuningError
+from sysid_core.interfaces import Solver, TuningCriterion, check_options
+from sysid_core.tuning import BiasSpace, TuningResult, frequencies_from_w, solve_spread
+
+if TYPE_CHECKING:
+    from sysid_core.model import FittedModel
+
+__all__ = ["Degenerate", "MinMaxBias", "Target"]
+
+
+def _solver(name: str | Solver) -> Solver:
+    if isinstance(name, Solver):
+        return name
+    from sysid_core.registry import get_registry
+
+    return get_registry().create("solver", name)
+
+
+def _fmt(bias: np.ndarray) -> str:
+    return "[" + ", ".join(f"{b:.4f}" for b in bias) + "] V"
+
+
+class _Base(TuningCriterion):
+    OPTIONS: tuple[str, ...] = ("tolerance_hz", "solver")
+
+    def __init__(self, tolerance_hz: float = 1e-3, solver: str | Solver = "clarabel", **opts: Any):
+        check_options("tuning criterion", self.name, opts, self.OPTIONS)
+        if tolerance_hz <= 0:
+            raise ConfigError(f"tolerance_hz must be positive, got {tolerance_hz}")
+        self.tolerance_hz = float(tolerance_hz)
+        self.solver = _solver(solver)
+
+    def _result(
+        self, model: FittedModel, space: BiasSpace, w: np.ndarray, value: float, **info: Any
+    ) -> TuningResult:
+        f = frequencies_from_w(model, w)
+        return TuningResult(
+            bias=space.to_bias(w, info.pop("max_abs_bias", None)),
+            w=w,
+            frequencies_hz=f,
+            split_hz=float(f[1] - f[0]),
+            criterion=self.name,
+            value=value,
+            info=info,
+        )
+
+
+class Degenerate(_Base):
+    """Equal modal frequencies (eq. 14, as eigenvalue-spread minimisation).
+
+    ``min t`` s.t. ``lam M ⪯ K(w) ⪯ (lam + t) M`` over the reachable box of ``w``. With more
+    electrodes than needed, among the degenerate points (within 1e-5 Hz of the least spread) the
+    one closest to the electrodes at ground (``w = v_gyro**2``) is returned: the smallest biases.
+
+    Parameters
+    ----------
+    tolerance_hz : float
+        Largest predicted split that counts as degenerate (default 1 mHz); above it the goal is
+        unreachable inside the limits.
+    solver : str
+        Conic solver backend (default ``clarabel``).
+    """
+
+    name = "degenerate"
+    description = "equal modal frequencies, eq. (14) as spread minimisation"
+
+    def solve(self, model: FittedModel, space: BiasSpace) -> TuningResult:
+        box = space.box()
+        anchor = np.full(len(space.tuned), space.structure_potential**2)
+        w, _ = solve_spread(model, box, self.solver, anchor_w=anchor)
+        res = self._result(model, space, w, 0.0)
+        res.value = res.split_hz
+        if res.split_hz > self.tolerance_hz:
+            raise UnreachableTuningError(
+                f"the modes cannot be made degenerate inside the bias limits {space.limits} V "
+                f"with electrodes {', '.join(space.tuned)}: the best reachable split is "
+                f"{res.split_hz * 1e3:.1f} mHz at {_fmt(res.bias)}",
+                best_bias=res.bias.tolist(),
+                best_value=res.split_hz,
+            )
+        return res
+
+
+class Target(_Base):
+    """Both modes at a target frequency (eq. 23, bounding the frequency error directly).
+
+    ``min t`` s.t. ``(w0^2 - t) M ⪯ K(w) ⪯ (w0^2 + t) M``: the modal frequencies lie within
+    ``sqrt(w0^2 ± t)``. The frequency error reported is ``max_i |f_i - target_hz|``.
+
+    Parameters
+    ----------
+    target_hz : float
+        Target modal frequency (Hz); required.
+    tolerance_hz : float
+        Largest frequency error that counts as reached (default 10 mHz).
+    solver : str
+        Conic solver backend.
+    """
+
+    name = "target"
+    description = "both modes at target_hz, eq. (23)"
+    OPTIONS = ("tolerance_hz", "solver", "target_hz")
+
+    def __init__(
+        self,
+        target_hz: float | None = None,
+        tolerance_hz: float = 1e-2,
+        solver: str | Solver = "clarabel",
+        **opts: Any,
+    ) -> None:
+        super().__init__(tolerance_hz, solver, **opts)
+        if target_hz is None:
+            raise ConfigError("criterion 'target' needs target_hz (in [tuning])")
+        if not np.isfinite(target_hz) or target_hz <= 0:
+            raise ConfigError(f"target_hz must be a positive frequency, got {target_hz}")
+        self.target_hz = float(target_hz)
+
+    def solve(self, model: FittedModel, space: BiasSpace) -> TuningResult:
+        box = space.box()
+        lam0 = (2 * np.pi * self.target_hz) ** 2
+        anchor = np.full(len(space.tuned), space.structure_potential**2)
+        w, _ = solve_spread(model, box, self.solver, target_lam=lam0, anchor_w=anchor)
+        res = self._result(model, space, w, 0.0, target_hz=self.target_hz)
+        res.value = float(np.max(np.abs(res.frequencies_hz - self.target_hz)))
+        res.info["frequency_error_hz"] = res.value
+        if res.value > self.tolerance_hz:
+            raise UnreachableTuningError(
+                f"the modes cannot both reach {self.target_hz} Hz inside the bias limits "
+                f"{space.limits} V with electrodes {', '.join(space.tuned)}: the best reachable "
+                f"frequency error is {res.value:.3f} Hz (modes at "
+                f"{res.frequencies_hz[0]:.3f} and {res.frequencies_hz[1]:.3f} Hz) at "
+                f"{_fmt(res.bias)}",
+                best_bias=res.bias.tolist(),
+                best_value=res.value,
+            )
+        return res
+
+
+class MinMaxBias(_Base):
+    """Degenerate modes with the smallest largest bias ``max_p |dv_p|``.
+
+    Bisection on the bound ``T``: for each ``T`` the reachable ``w_p`` is the interval
+    ``[max(0, |v_gyro| - T)^2, (|v_gyro| + T)^2]`` (intersected with the device limits) and a
+    spread program decides whether degenerate modes are reachable (spread ≤ 1e-5 Hz).
+
+    Parameters
+    ----------
+    tolerance_hz : float
+        Largest predicted split that counts as degenerate at the full limits (default 1 mHz).
+    bias_tol : float
+        Bisection stops when the bracket on ``T`` is narrower than this (default 1e-4 V).
+    solver : str
+        Conic solver backend.
+    """
+
+    name = "min-max-bias"
+    description = "degenerate modes with the smallest max |bias| (bisection)"
+    OPTIONS = ("tolerance_hz", "solver", "bias_tol")
+    _FEASIBLE_HZ = 1e-5
+
+    def __init__(
+        self,
+        tolerance_hz: float = 1e-3,
+        solver: str | Solver = "clarabel",
+        bias_tol: float = 1e-4,
+        **opts: Any,
+    ) -> None:
+        super().__init__(tolerance_hz, solver, **opts)
+        self.bias_tol = float(bias_tol)
+
+    def _spread(self, model: FittedModel, space: BiasSpace, t_max: float):
+        w, _ = solve_spread(model, space.box(t_max), self.solver)
+        f = frequencies_from_w(model, w)
+        return w, float(f[1] - f[0])
+
+    def solve(self, model: FittedModel, space: BiasSpace) -> TuningResult:
+        low, high = space.limits
+        hi = max(abs(low), abs(high))
+        w_hi, split = self._spread(model, space, hi)
+        if split > self.tolerance_hz:
+            res = self._result(model, space, w_hi, split)
+            raise UnreachableTuningError(
+                f"the modes cannot be made degenerate inside the bias limits {space.limits} V: "
+                f"the best reachable split is {split * 1e3:.1f} mHz at {_fmt(res.bias)}",
+                best_bias=res.bias.tolist(),
+                best_value=split,
+            )
+        lo = 0.0
+        while hi - lo > self.bias_tol:
+            mid = 0.5 * (lo + hi)
+            w, split = self._spread(model, space, mid)
+            if split <= self._FEASIBLE_HZ:
+                hi, w_hi = mid, w
+            else:
+                lo = mid
+        res = self._result(model, space, w_hi, 0.0, max_abs_bias=hi + 1e-9)
+        res.value = res.split_hz
+        res.info["max_abs_bias"] = float(np.max(np.abs(res.bias[space.index])))
+        return res

@@ -1,0 +1,179 @@
+"""Plots of a tuning run (PNG, matplotlib), in the style of the paper's Figs. 4-6.
+
+* :func:`plot_fit`: Bode magnitude and phase of the data and the model, per experiment.
+* :func:`plot_verification`: the verification sweep, the identified model's prediction at the
+  applied bias and the single-bias fit that measures the split.
+* :func:`plot_bias_path`: the bias across iterations and the measured split.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+import xarray as xr
+
+from sysid_core.data import measured_mask
+from sysid_core.io import atomic_write
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from sysid_core.model import FittedModel
+
+__all__ = ["plot_bias_path", "plot_fit", "plot_verification"]
+
+_MARKERS = "odsv^<>p*h"
+
+
+def _figure(rows: int, cols: int, size: tuple[float, float]) -> Figure:
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=size, layout="constrained")
+    fig.subplots(rows, cols, squeeze=False)
+    return fig
+
+
+def _save(fig: Figure, path: str | os.PathLike[str]) -> Path:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    data = buf.getvalue()
+    return atomic_write(path, lambda tmp: tmp.write_bytes(data))
+
+
+def _channels(ds: xr.Dataset) -> list[tuple[int, int, str]]:
+    return [
+        (o, i, f"{ds['output'].values[o]} / {ds['input'].values[i]}")
+        for o in range(ds.sizes["output"])
+        for i in range(ds.sizes["input"])
+    ]
+
+
+def plot_fit(
+    ds: xr.Dataset, model: FittedModel, path: str | os.PathLike[str], title: str = ""
+) -> Path:
+    """Data (markers) and model (lines) per experiment: magnitude (dB) and phase (deg)."""
+    fig = _figure(4, 2, (11, 11))
+    axes = fig.axes
+    f = ds["frequency"].values
+    mask = measured_mask(ds)
+    dense = np.linspace(f.min(), f.max(), 1200)
+    for k in range(ds.sizes["experiment"]):
+        bias = ds["bias"].values[k]
+        data = ds["response"].values[k][mask[k]]
+        fk = f[mask[k]]
+        resp = model.response(dense, bias)
+        label = "[" + ", ".join(f"{b:.2f}" for b in bias) + "] V"
+        for row, (o, i, name) in enumerate(_channels(ds)):
+            ax_m, ax_p = axes[2 * row], axes[2 * row + 1]
+            (line,) = ax_m.plot(dense, 20 * np.log10(np.abs(resp[:, o, i])), lw=1)
+            color = line.get_color()
+            ax_m.plot(
+                fk,
+                20 * np.log10(np.abs(data[:, o, i])),
+                _MARKERS[k % 10],
+                ms=3,
+                mfc="none",
+                color=color,
+                label=label if row == 0 else None,
+            )
+            ax_p.plot(dense, np.degrees(np.angle(resp[:, o, i])), lw=1, color=color)
+            ax_p.plot(
+                fk,
+                np.degrees(np.angle(data[:, o, i])),
+                _MARKERS[k % 10],
+                ms=3,
+                mfc="none",
+                color=color,
+            )
+            ax_m.set_ylabel(f"{name}\n|H| [dB]")
+            ax_p.set_ylabel("phase [deg]")
+    for ax in axes[-2:]:
+        ax.set_xlabel("frequency [Hz]")
+    axes[0].legend(fontsize=7, title="bias", title_fontsize=7)
+    fig.suptitle(title or "identified model (lines) and data (markers)")
+    return _save(fig, path)
+
+
+def plot_verification(
+    sweep: xr.Dataset,
+    predicted: FittedModel,
+    bias: Sequence[float],
+    fitted: FittedModel,
+    path: str | os.PathLike[str],
+    title: str = "",
+) -> Path:
+    """Verification sweep (markers), the prediction at ``bias`` (dashed) and its fit (solid)."""
+    fig = _figure(4, 2, (11, 10))
+    axes = fig.axes
+    f = sweep["frequency"].values
+    data = sweep["response"].values[0]
+    dense = np.linspace(f.min(), f.max(), 800)
+    pred = predicted.response(dense, bias)
+    fit = fitted.response(dense, [])
+    for row, (o, i, name) in enumerate(_channels(sweep)):
+        ax_m, ax_p = axes[2 * row], axes[2 * row + 1]
+        ax_m.plot(f, 20 * np.log10(np.abs(data[:, o, i])), "o", ms=3, mfc="none", label="data")
+        ax_m.plot(dense, 20 * np.log10(np.abs(pred[:, o, i])), "--", lw=1, label="prediction")
+        ax_m.plot(dense, 20 * np.log10(np.abs(fit[:, o, i])), "-", lw=1, label="fit of sweep")
+        ax_p.plot(f, np.degrees(np.angle(data[:, o, i])), "d", ms=3, mfc="none")
+        ax_p.plot(dense, np.degrees(np.angle(pred[:, o, i])), "--", lw=1)
+        ax_p.plot(dense, np.degrees(np.angle(fit[:, o, i])), "-", lw=1)
+        ax_m.set_ylabel(f"{name}\n|H| [dB]")
+        ax_p.set_ylabel("phase [deg]")
+    for ax in axes[-2:]:
+        ax.set_xlabel("frequency [Hz]")
+    axes[0].legend(fontsize=7)
+    rep = fitted.modal([])
+    fig.suptitle(
+        title
+        or f"verification: modes {rep.frequencies_hz[0]:.4f} / {rep.frequencies_hz[1]:.4f} Hz, "
+        f"split {rep.split_hz * 1e3:.1f} mHz"
+    )
+    return _save(fig, path)
+
+
+def plot_bias_path(
+    biases: Sequence[Sequence[float]],
+    splits_hz: Sequence[float],
+    electrodes: Sequence[str],
+    path: str | os.PathLike[str],
+    limits: tuple[float, float] | None = None,
+) -> Path:
+    """The bias after each iteration (first two electrodes' plane) and the measured split."""
+    fig = _figure(1, 2, (11, 4.5))
+    ax_b, ax_s = fig.axes
+    b = np.asarray(biases, dtype=float)
+    if b.shape[1] >= 2:
+        ax_b.plot(b[:, 0], b[:, 1], "-o", ms=4)
+        for k, (x, y) in enumerate(b[:, :2]):
+            ax_b.annotate(
+                "start" if k == 0 else str(k),
+                (x, y),
+                fontsize=8,
+                textcoords="offset points",
+                xytext=(4, 4),
+            )
+        ax_b.set_xlabel(f"{electrodes[0]} bias [V]")
+        ax_b.set_ylabel(f"{electrodes[1]} bias [V]")
+    else:
+        ax_b.plot(np.arange(len(b)), b[:, 0], "-o")
+        ax_b.set_xlabel("iteration")
+        ax_b.set_ylabel(f"{electrodes[0]} bias [V]")
+    if limits is not None and b.shape[1] >= 2:
+        ax_b.axhline(limits[0], color="0.8")
+        ax_b.axhline(limits[1], color="0.8")
+        ax_b.axvline(limits[0], color="0.8")
+        ax_b.axvline(limits[1], color="0.8")
+    ax_b.set_title("bias path")
+    it = np.arange(1, len(splits_hz) + 1)
+    ax_s.semilogy(it, np.maximum(np.asarray(splits_hz) * 1e3, 1e-3), "-o")
+    ax_s.set_xlabel("iteration")
+    ax_s.set_ylabel("measured split [mHz]")
+    ax_s.set_xticks(it)
+    ax_s.set_title("split after each iteration")
+    return _save(fig, path)
