@@ -322,7 +322,7 @@ class TuningRun:
             half = exp.refine_span_hz / 2
             lo, hi = max(lo, center_hz - half), min(hi, center_hz + half)
             res = exp.refine_resolution_hz
-        n = int(math.floor((hi - lo) / res + 1e-9)) + 1
+        n = math.floor((hi - lo) / res + 1e-9) + 1
         return lo + res * np.arange(n)
 
     # ------------------------------------------------------------------ steps
@@ -358,7 +358,7 @@ class TuningRun:
         band_lo, band_hi = self.config.experiment.band_hz or self.device.band_hz
         for attempt in range(4):
             lo, hi = max(center_hz - span / 2, band_lo), min(center_hz + span / 2, band_hi)
-            n = max(int(round((hi - lo) / res)) + 1, 21)
+            n = max(round((hi - lo) / res) + 1, 21)
             freqs = np.linspace(lo, hi, n)
             name = "verify.nc" if attempt == 0 else f"verify-{attempt + 1}.nc"
             sweep = self._measure(bias, freqs, folder / name)
