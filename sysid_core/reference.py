@@ -35,10 +35,15 @@ Two notes from measuring it (cvxpy 1.9, Clarabel 0.11):
   :meth:`FitProblem.minimax_rows <sysid_core.problem.FitProblem.minimax_rows>`, so Clarabel
   sometimes stalls with the dual residual a few times above ``tol_feas`` and ends
   ``AlmostSolved`` (cvxpy: ``"optimal_inaccurate"``) although γ is right to about 1e-8
-  (e.g. ``sen``, 3 x 41 points). Pass ``tol_feas=1e-7``, or use ``form="sigma_max"`` (cvxpy's own
-  ``sigma_max`` atom), which ended ``"optimal"`` in every case tried.
-* Compiling is the cost: about 4 s for 3 x 41 points against 0.3 s in the solver, growing a
-  little faster than the number of points.
+  (e.g. ``sen`` on 3 x 41 points, ``act`` on 3 x 121). Pass ``tol_feas=1e-7``, or use
+  ``form="sigma_max"`` (cvxpy's own ``sigma_max`` atom), which ended ``"optimal"`` in every case
+  tried (4 structures and orders at 3 x 15 to 3 x 61 points).
+* Compiling is the cost: about 0.3 s plus 20 ms per point on a shared 2-core machine (4 s for
+  3 x 41 points against 0.3 s in the solver; 15 s at the paper's 3 x 121), growing a little
+  faster than the number of points.
+* The least-squares optimum is small in scaled units (1e-5 to 1e-3), so Clarabel's default
+  absolute gap tolerance (1e-8) limits its relative accuracy to about 1e-5..1e-6: pass
+  ``tol_gap_abs=1e-12, tol_gap_rel=1e-12`` for a reference at 1e-6 or better.
 
 cvxpy is imported inside the functions, so importing :mod:`sysid_core` stays light.
 """
