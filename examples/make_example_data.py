@@ -13,8 +13,8 @@ import sys
 from pathlib import Path
 
 import numpy as np
-
 from sysid_cloverleaf.device import CloverleafGyro
+
 from sysid_core.data import concat_experiments, experiment_from_measurement, save_dataset
 
 

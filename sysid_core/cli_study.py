@@ -1,0 +1,82 @@
+"""``sysid study``: the paper's statistical study (Sec. III-B), in parallel."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from sysid_core.cli import app, err, out
+
+
+@app.command("study")
+def study_cmd(
+    config: Annotated[Path, typer.Argument(help="Study configuration (TOML with [study]).")],
+    out_dir: Annotated[
+        Path | None, typer.Option("--out", help="Output directory (default: runs/<config>).")
+    ] = None,
+    as_json: Annotated[
+        bool, typer.Option("--json", help="Last stdout line: one JSON object.")
+    ] = False,
+    workers: Annotated[
+        int | None, typer.Option("--workers", help="Local worker processes (default: cores).")
+    ] = None,
+    scheduler: Annotated[
+        str | None, typer.Option("--scheduler", help="Address of a running dask scheduler.")
+    ] = None,
+    executor: Annotated[
+        str, typer.Option("--executor", help="dask (default) or local (in this process).")
+    ] = "dask",
+    no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip the PNG figures.")] = False,
+) -> None:
+    """Tune from every start point of a grid, with each model; compare with the truth."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from sysid_core.errors import ConfigError
+    from sysid_core.study import load_study_config, run_study
+
+    if executor not in ("dask", "local"):
+        raise ConfigError(f"--executor must be 'dask' or 'local', not {executor!r}")
+    cfg = load_study_config(config)
+    target = out_dir or Path("runs") / config.stem
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=err,
+        transient=as_json,
+    ) as bar:
+        task = bar.add_task("study", total=None)
+
+        def progress(done: int, total: int, message: str) -> None:
+            bar.update(task, completed=done, total=total, description=message[:60])
+            if "failed" in message:
+                err.print(f"[yellow]{message}[/]")
+
+        full = run_study(cfg, target, executor, workers, scheduler, progress, plots=not no_plots)
+    primary = full["summary"][full["primary_objective"]]
+    if as_json:
+        keys = ("runs", "mean_bias", "std_bias", "under_10mHz", "under_300mHz", "median_split_hz")
+        compact = {
+            model: {it: {k: v[k] for k in keys} for it, v in per_it.items()}
+            for model, per_it in primary.items()
+        }
+        compact["by_objective"] = full["summary"]
+        compact["elapsed_s"] = full["elapsed_s"]
+        print(json.dumps(compact))
+        return
+    for obj, per_model in full["summary"].items():
+        for model, per_it in per_model.items():
+            for it, v in per_it.items():
+                out.print(
+                    f"{obj:>13} {model} iteration {it}: {v['runs']} runs, mean bias "
+                    f"{v['mean_bias']}, std {v['std_bias']}, true split < 10 mHz: "
+                    f"{v['under_10mHz']}, < 300 mHz: {v['under_300mHz']}, median "
+                    f"{(v['median_split_hz'] or float('nan')) * 1e3:.2f} mHz"
+                )
+    if full["failures"]:
+        out.print(f"[yellow]{len(full['failures'])} run(s) failed; see {target}/summary.json[/]")
+    out.print(f"{full['runs']} runs in {full['elapsed_s']:.0f} s; results in {target}/")
