@@ -5,7 +5,10 @@
    The first iteration sweeps the whole band; later ones a narrower span around the last
    measured modal frequency (``refine_span_hz``, see :class:`~sysid_core.config.ExperimentConfig`).
 2. Fit one bias-dependent model to them.
-3. Apply the tuning criterion.
+3. Apply the tuning criterion. If it finds the goal unreachable inside the limits, the run
+   ends with :class:`~sysid_core.errors.UnreachableTuningError`, unless iterations remain and
+   the best reachable bias is more than ``bias_step`` away (the model extrapolated): then the
+   run continues from that bias and a model identified around it decides.
 4. Verify with a dense sweep around the predicted frequency (10 mHz over ±0.5 Hz by default,
    widened when the modes fall outside) and a single-bias fit of it: the measured split.
 
@@ -39,13 +42,19 @@ from sysid_core.data import (
     load_dataset,
     save_dataset,
 )
-from sysid_core.errors import BiasLimitError, ConfigError, DeviceError, SysidError
+from sysid_core.errors import (
+    BiasLimitError,
+    ConfigError,
+    DeviceError,
+    SysidError,
+    UnreachableTuningError,
+)
 from sysid_core.fit import fit
 from sysid_core.interfaces import Device
 from sysid_core.io import write_json
 from sysid_core.model import FittedModel
 from sysid_core.registry import Registry, get_registry
-from sysid_core.tuning import BiasSpace, TuningResult
+from sysid_core.tuning import BiasSpace, TuningResult, frequencies_from_w
 
 __all__ = ["RunSummary", "TuningRun", "check_bias", "design_experiments", "measure_safely"]
 
@@ -248,6 +257,12 @@ class TuningRun:
         self.criterion = self.registry.create(
             "tuning criterion", config.tuning.criterion, **crit_opts
         )
+        # The model, objective and solver settings are used only at the first fit: check them
+        # now, before anything is measured.
+        m = config.model
+        self.registry.create("model structure", m.structure, order=m.order)
+        self.registry.create("objective", m.objective, **m.objective_options)
+        self.registry.create("solver", config.solver.name, **config.solver.options)
         self.measurements = 0
 
     # ------------------------------------------------------------------ bookkeeping
@@ -314,12 +329,13 @@ class TuningRun:
             solver_options=self.config.solver.options,
         )
 
-    def _band(self, center_hz: float | None = None) -> np.ndarray:
+    def _band(self, center_hz: float | None = None, split_hz: float = 0.0) -> np.ndarray:
         exp = self.config.experiment
         lo, hi = exp.band_hz or self.device.band_hz
         res = exp.resolution_hz
         if center_hz is not None and exp.refine_span_hz > 0:
-            half = exp.refine_span_hz / 2
+            # wide enough for both measured modes, with a margin, even if they are far apart
+            half = max(exp.refine_span_hz / 2, 1.5 * split_hz)
             lo, hi = max(lo, center_hz - half), min(hi, center_hz + half)
             res = exp.refine_resolution_hz
         n = math.floor((hi - lo) / res + 1e-9) + 1
@@ -327,7 +343,12 @@ class TuningRun:
 
     # ------------------------------------------------------------------ steps
     def _identify(
-        self, it: int, bias: np.ndarray, folder: Path, center_hz: float | None
+        self,
+        it: int,
+        bias: np.ndarray,
+        folder: Path,
+        center_hz: float | None,
+        split_hz: float = 0.0,
     ) -> tuple[xr.Dataset, FittedModel]:
         design = design_experiments(
             bias, self.space.index, self.config.experiment.bias_step, self.space.limits
@@ -335,7 +356,7 @@ class TuningRun:
         check_rank_condition(
             design[:, self.space.index], self.space.structure_potential, self.space.tuned
         )
-        freqs = self._band(center_hz)
+        freqs = self._band(center_hz, split_hz)
         parts = [self._measure(b, freqs, folder / f"exp{j}.nc") for j, b in enumerate(design)]
         ds = concat_experiments(parts).sel(electrode=self.space.tuned)
         held = {
@@ -375,6 +396,43 @@ class TuningRun:
             self.say(f"verification: modes near the sweep's edge; widening to {span:.2f} Hz")
         return sweep, vmodel
 
+    def _best_effort(
+        self, exc: UnreachableTuningError, model: FittedModel, space: BiasSpace, it: int
+    ) -> TuningResult:
+        """Continue from the best reachable bias, or re-raise ``exc`` if that cannot help.
+
+        A model identified around the current bias extrapolates to a far bias, so its verdict
+        "unreachable" may be wrong there (measured: the cloverleaf's 4435 Hz target, B1 near
+        9.2 V, 0.02-0.4 Hz "short" after the first iteration for some noise draws). If
+        iterations remain and the best reachable bias lies more than ``bias_step`` from the
+        current one, the run moves there (it is inside the limits) and identifies a model
+        around it; the verdict of a model identified there, or of the last iteration, stands.
+        """
+        best = exc.best_bias
+        step = self.config.experiment.bias_step
+        if (
+            best is None
+            or it >= self.config.tuning.max_iterations
+            or float(np.max(np.abs(np.asarray(best, dtype=float) - space.start_bias))) <= step
+        ):
+            raise exc
+        bias = check_bias(self.device, best)
+        w = (space.structure_potential - bias[space.index]) ** 2
+        f = frequencies_from_w(model, w)
+        self.say(
+            f"iteration {it}: {exc} -- the model was identified more than {step} V away; "
+            "continuing from that bias"
+        )
+        return TuningResult(
+            bias=bias,
+            w=w,
+            frequencies_hz=f,
+            split_hz=float(f[1] - f[0]),
+            criterion=self.criterion.name,
+            value=float(exc.best_value) if exc.best_value is not None else float("nan"),
+            info={"unreachable": str(exc)},
+        )
+
     # ------------------------------------------------------------------ the loop
     def run(self) -> RunSummary:
         """Run (or resume) the loop; returns the summary (also written to ``summary.json``)."""
@@ -406,9 +464,13 @@ class TuningRun:
                 self.space.structure_potential,
             )
             center = history[-1].measured_frequency_hz if history else None
-            ds, model = self._identify(it, bias, folder, center)
+            split = history[-1].measured_split_hz if history else 0.0
+            ds, model = self._identify(it, bias, folder, center, split)
             fit_time = time.perf_counter() - t0
-            result: TuningResult = self.criterion.solve(model, space)
+            try:
+                result: TuningResult = self.criterion.solve(model, space)
+            except UnreachableTuningError as exc:
+                result = self._best_effort(exc, model, space, it)
             new_bias = check_bias(self.device, result.bias)
             write_json(folder / "tuning.json", result.as_dict())
             self.say(

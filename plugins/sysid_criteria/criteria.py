@@ -193,7 +193,9 @@ class MinMaxBias(_Base):
                 best_bias=res.bias.tolist(),
                 best_value=split,
             )
-        lo = 0.0
+        # No bias has |dv| below the limit nearest 0 when the limits exclude 0: start there
+        # (a bound below it would leave an empty interval of w).
+        lo = 0.0 if low <= 0.0 <= high else min(abs(low), abs(high))
         while hi - lo > self.bias_tol:
             mid = 0.5 * (lo + hi)
             w, split = self._spread(model, space, mid)
