@@ -56,7 +56,12 @@ def study_cmd(
             if "failed" in message:
                 err.print(f"[yellow]{message}[/]")
 
-        full = run_study(cfg, target, executor, workers, scheduler, progress, plots=not no_plots)
+        import shlex
+        import sys
+
+        command = "sysid " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+        full = run_study(cfg, target, executor, workers, scheduler, progress,
+                         plots=not no_plots, command=command)
     primary = full["summary"][full["primary_objective"]]
     if as_json:
         keys = ("runs", "mean_bias", "std_bias", "under_10mHz", "under_300mHz", "median_split_hz")

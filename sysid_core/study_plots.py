@@ -55,10 +55,12 @@ def plot_study(
         return []
     center = np.asarray(tuned_bias, dtype=float) if tuned_bias else np.median(finite, axis=0)
     base = np.zeros(ds.sizes["electrode"])
-    a, b, split = true_split_map(device, base, tuned_index, center, 0.6)
-    if tuned_bias is None and np.isfinite(split).any():
-        k = np.nanargmin(split)
-        center = np.array([a[k % a.size], b[k // a.size]])
+    if tuned_bias is None:  # the truth's tuned point, refined on two nested grids
+        for hw in (0.6, 0.02):
+            a, b, split = true_split_map(device, base, tuned_index, center, hw, n=81)
+            if np.isfinite(split).any():
+                k = np.nanargmin(split)
+                center = np.array([a[k % a.size], b[k // a.size]])
     starts = ds["start_bias"].values[:, tuned_index[:2]]
     dist = np.linalg.norm(starts - center, axis=1)
     size = 8 + 60 * dist / max(dist.max(), 1e-9)
@@ -69,6 +71,9 @@ def plot_study(
                 sel = ds.sel(objective=obj, model=model, iteration=it)
                 p = sel["predicted_bias"].values[:, tuned_index[:2]]
                 s = sel["true_split_hz"].values
+                far = np.abs(p - center)[np.isfinite(p).all(axis=1)].max(axis=1)
+                half = float(np.clip(1.15 * np.percentile(far, 90), 0.02, 3.0)) if far.size else 1
+                a, b, split = true_split_map(device, base, tuned_index, center, half, n=101)
                 fig = Figure(figsize=(6.2, 5.6), layout="constrained")
                 ax = fig.subplots()
                 cs = ax.contour(
@@ -84,7 +89,7 @@ def plot_study(
                     edgecolors="C0",
                     linewidths=0.8,
                 )
-                out_of_view = int((ok & ((np.abs(p - center) > 0.6).any(axis=1))).sum())
+                out_of_view = int((ok & ((np.abs(p - center) > half).any(axis=1))).sum())
                 m = p[ok].mean(axis=0) if ok.any() else [np.nan, np.nan]
                 sd = p[ok].std(axis=0, ddof=1) if ok.sum() > 1 else [np.nan, np.nan]
                 ax.set_xlim(a[0], a[-1])
