@@ -281,6 +281,7 @@ def fmt_time(t: float | None) -> str:
 def report(case: str, results: dict[str, dict[str, Any]], timeout: float) -> None:
     """Print one case's table."""
     cvx = results["cvxpy"]["time"]
+    cvx_unfinished = str(results["cvxpy"]["status"]).startswith("did not finish")
     ref = results["clarabel-full"]["gamma"]
     print(f"\n== {case} (experiments x points) ==")
     head = (
@@ -296,8 +297,10 @@ def report(case: str, results: dict[str, dict[str, Any]], timeout: float) -> Non
             ratio = "-"
         elif cvx is not None:
             ratio = f"{cvx / t:.1f}x"
-        else:
+        elif cvx_unfinished:
             ratio = f">{timeout / t:.0f}x"
+        else:
+            ratio = "-"
         gamma = r["gamma"]
         g = "-" if gamma is None else f"{gamma:.7g}"
         rel = "-" if gamma is None or not ref else f"{(gamma - ref) / ref:+.1e}"
