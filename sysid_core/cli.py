@@ -207,4 +207,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    # Run as a module, this file is "__main__": use the commands registered on sysid_core.cli.
+    from sysid_core.cli import main as _main
+
+    sys.exit(_main())

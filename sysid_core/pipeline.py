@@ -291,9 +291,10 @@ class TuningRun:
         """Read ``path`` if it holds this measurement (resume), else measure and save it first."""
         if path.exists():
             ds = load_dataset(path)
-            if np.allclose(ds["bias"].values[0], bias, atol=1e-12) and np.allclose(
-                ds["frequency"].values, freqs
-            ):
+            same_grid = ds.sizes["frequency"] == freqs.size and np.allclose(
+                ds["frequency"].values, freqs, rtol=0, atol=1e-9
+            )
+            if same_grid and np.allclose(ds["bias"].values[0], bias, rtol=0, atol=1e-12):
                 self.say(f"read {path.name} (measured earlier)")
                 self.measurements += 1
                 return ds

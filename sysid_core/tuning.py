@@ -21,7 +21,7 @@ import scipy.linalg
 import scipy.sparse as sp
 
 from sysid_core.conic import SQRT2, ConeDims, ConicProgram
-from sysid_core.errors import BiasLimitError, ConfigError
+from sysid_core.errors import BiasLimitError, ConfigError, SolverError
 
 if TYPE_CHECKING:
     from sysid_core.interfaces import Solver
@@ -301,7 +301,10 @@ def solve_spread(
     """Minimise the spread (or target error); return ``(w, optimal value in Hz)``.
 
     With ``anchor_w`` and more than two tuned electrodes, the answer is the point closest to
-    ``anchor_w`` (scaled) among those within ``tie_tol_hz`` of the optimum: unique.
+    ``anchor_w`` (scaled) among those within ``tie_tol_hz`` of the optimum: unique. If that
+    second program fails in the solver (seen with Clarabel, "InsufficientProgress", when the
+    near-optimal set is a thin sliver far from the anchor), the first answer, also optimal, is
+    kept.
     """
     prog, sc = spread_program(model, box, target_lam)
     sol = solver.solve(prog)
@@ -312,7 +315,10 @@ def solve_spread(
         lam = sc.lam_ref
         dt = ((np.sqrt(lam) + 2 * np.pi * tie_tol_hz) ** 2 - lam) / (lam * _D)
         prog2, _ = spread_program(model, box, target_lam, bound=t + dt, anchor_w=anchor_w)
-        u = solver.solve(prog2).x[:n_t]
+        try:
+            u = solver.solve(prog2).x[:n_t]
+        except SolverError:
+            pass  # keep the optimal (if not unique) answer of the first program
     w = np.clip(sc.w(np.clip(u, -1.0, 1.0)), box[:, 0], box[:, 1])
     return w, t
 

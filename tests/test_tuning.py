@@ -197,9 +197,11 @@ def test_w_round_trip(lv: tuple[float, float, float], frac: float) -> None:
     dv = bias_from_w(w, v, low, high)
     assert low <= dv <= high
     assert (v - dv) ** 2 == pytest.approx(w, rel=1e-9, abs=1e-9)
-    # the smaller |dv| of the roots inside the limits
+    # the smaller |dv| of the roots inside the limits (within 1e-9 V, then clipped to them)
     root = math.sqrt(w)
-    inside = [r for r in (v - root, v + root) if low - 1e-9 <= r <= high + 1e-9]
+    inside = [
+        min(max(r, low), high) for r in (v - root, v + root) if low - 1e-9 <= r <= high + 1e-9
+    ]
     assert abs(dv) == pytest.approx(min(abs(r) for r in inside), abs=1e-9)
 
 

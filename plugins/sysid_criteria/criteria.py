@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sysid_core.errors import ConfigError, UnreachableTuningError
+from sysid_core.errors import ConfigError, SolverError, UnreachableTuningError
 from sysid_core.interfaces import Solver, TuningCriterion, check_options
 from sysid_core.tuning import BiasSpace, TuningResult, frequencies_from_w, solve_spread
 
@@ -149,7 +149,9 @@ class MinMaxBias(_Base):
 
     Bisection on the bound ``T``: for each ``T`` the reachable ``w_p`` is the interval
     ``[max(0, |v_gyro| - T)^2, (|v_gyro| + T)^2]`` (intersected with the device limits) and a
-    spread program decides whether degenerate modes are reachable (spread ≤ 1e-5 Hz).
+    spread program decides whether degenerate modes are reachable (spread ≤ 1e-5 Hz). A bound
+    whose program the solver cannot decide counts as infeasible (the answer stays a verified
+    feasible point, at worst a little above the optimum).
 
     Parameters
     ----------
@@ -198,7 +200,10 @@ class MinMaxBias(_Base):
         lo = 0.0 if low <= 0.0 <= high else min(abs(low), abs(high))
         while hi - lo > self.bias_tol:
             mid = 0.5 * (lo + hi)
-            w, split = self._spread(model, space, mid)
+            try:
+                w, split = self._spread(model, space, mid)
+            except SolverError:  # undecided (seen on tiny boxes): treat as infeasible, go up
+                split = float("inf")
             if split <= self._FEASIBLE_HZ:
                 hi, w_hi = mid, w
             else:

@@ -162,7 +162,7 @@ class _WorkingSet:
         self.in_set = np.zeros(n, dtype=bool)
         self.sticky = np.zeros(n, dtype=bool)
         self.dropped = np.zeros(n, dtype=bool)
-        self.solves = self.iterations = 0
+        self.solves = self.iterations = self.retries = 0
         self.r = np.zeros(n)
 
     def run(self, stage: str, bound: float | None, scale: float | None):
@@ -184,8 +184,14 @@ class _WorkingSet:
             except SolverError as exc:
                 # A small working set can make the program degenerate (a near-exact
                 # interpolation); more points fix that. With every point in, it is an error.
-                if points.size == n_pts or not str(exc.status).startswith("Almost"):
-                    raise
+                if (
+                    bound is not None
+                    or points.size == n_pts
+                    or not str(exc.status).startswith("Almost")
+                    or self.retries >= 3
+                ):
+                    raise  # the tie-break falls back to the minimax optimum; see Minimax.fit
+                self.retries += 1
                 out = np.flatnonzero(~self.in_set)
                 grow = out[np.argsort(-self.r[out])][: self.batch]
                 self.in_set[grow] = self.sticky[grow] = True
