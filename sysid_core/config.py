@@ -26,7 +26,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from sysid_core.errors import ConfigError
 
-__all__ = ["PipelineConfig", "load_config", "parse_config"]
+__all__ = ["PipelineConfig", "load_config", "parse_config", "read_toml"]
 
 
 class _Strict(BaseModel):
@@ -150,13 +150,17 @@ def parse_config(data: dict[str, Any], source: str = "config") -> PipelineConfig
         raise ConfigError(f"{source}: {_describe(exc)}") from None
 
 
-def load_config(path: str | os.PathLike[str]) -> PipelineConfig:
-    """Read and validate a TOML configuration file."""
+def read_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """The tables of a TOML file; a missing or malformed file is a ConfigError."""
     path = Path(path)
     if not path.exists():
         raise ConfigError(f"no configuration file at {path}")
     try:
-        data = tomllib.loads(path.read_text())
+        return tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: not valid TOML: {exc}") from None
-    return parse_config(data, str(path))
+
+
+def load_config(path: str | os.PathLike[str]) -> PipelineConfig:
+    """Read and validate a TOML configuration file."""
+    return parse_config(read_toml(path), str(path))

@@ -28,7 +28,7 @@ import numpy as np
 import xarray as xr
 from pydantic import BaseModel, ConfigDict, Field
 
-from sysid_core.config import PipelineConfig, _describe
+from sysid_core.config import PipelineConfig, _describe, read_toml
 from sysid_core.errors import ConfigError
 from sysid_core.io import atomic_write, write_json
 
@@ -70,17 +70,9 @@ class StudyConfig(BaseModel):
 
 def load_study_config(path: str | os.PathLike[str]) -> StudyConfig:
     """Read a study configuration (the ``sysid tune`` tables plus ``[study]``)."""
-    import tomllib
-
     from pydantic import ValidationError
 
-    path = Path(path)
-    if not path.exists():
-        raise ConfigError(f"no configuration file at {path}")
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    data = read_toml(path)
     study = data.pop("study", {})
     try:
         pipeline = PipelineConfig.model_validate(data)
