@@ -1,8 +1,10 @@
 """The third-party example in docs/examples/sysid-example-device installs and registers.
 
-The example is pip-installed (editable, no dependencies) into the running environment if it is
-not installed yet. Its entry point becomes visible only to new processes (an editable install
-works through a .pth file read at start-up), so the checks run in subprocesses.
+The example is pip-installed (a regular, non-editable install without dependencies) into the
+running environment if it is not installed yet: it lands in site-packages, which is already on
+``sys.path``, so this process and every later test can import it (an editable install would
+work through a .pth file that only new processes read, and this process would then warn that
+the plugin fails to load). The checks run in subprocesses, as a user's program would.
 """
 
 from __future__ import annotations
@@ -36,7 +38,7 @@ def _installed() -> bool:
 
 
 def _can_build_without_isolation() -> bool:
-    """setuptools >= 64 can build editable wheels; before 70.1 it needs the wheel package."""
+    """setuptools builds wheels in place from 70.1 on; before that it needs the wheel package."""
     if importlib.util.find_spec("setuptools") is None:
         return False
     version = tuple(int(p) for p in importlib.metadata.version("setuptools").split(".")[:2])
@@ -61,13 +63,17 @@ def example_installed() -> None:
     command += ["--no-deps"]
     if _can_build_without_isolation():
         command += ["--no-build-isolation"]
-    command += ["-e", str(EXAMPLE)]
+    command += [str(EXAMPLE)]
     done = subprocess.run(command, capture_output=True, text=True, timeout=600, check=False)
     if done.returncode != 0:
         tail = "\n".join((done.stdout + done.stderr).strip().splitlines()[-15:])
         if any(hint in tail for hint in OFFLINE_HINTS):
             pytest.skip(f"cannot install the example offline (no package index reachable):\n{tail}")
         pytest.fail(f"pip could not install {EXAMPLE}:\n{tail}")
+    importlib.invalidate_caches()
+    from sysid_core.registry import reset_registry
+
+    reset_registry()  # the next lookup sees the new entry point
 
 
 def _run(code: str) -> str:
