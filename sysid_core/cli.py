@@ -34,6 +34,12 @@ app = typer.Typer(
 err = Console(stderr=True)
 out = Console()
 
+#: Options shared by the commands that run a configuration file.
+OutDirOption = Annotated[
+    Path | None, typer.Option("--out", help="Output directory (default: runs/<config>).")
+]
+JsonOption = Annotated[bool, typer.Option("--json", help="Last stdout line: one JSON object.")]
+
 
 def _registry():
     from sysid_core.registry import get_registry

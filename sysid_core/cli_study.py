@@ -8,18 +8,14 @@ from typing import Annotated
 
 import typer
 
-from sysid_core.cli import app, err, out
+from sysid_core.cli import JsonOption, OutDirOption, app, err, out
 
 
 @app.command("study")
 def study_cmd(
-    config: Annotated[Path, typer.Argument(help="Study configuration (TOML with [study]).")],
-    out_dir: Annotated[
-        Path | None, typer.Option("--out", help="Output directory (default: runs/<config>).")
-    ] = None,
-    as_json: Annotated[
-        bool, typer.Option("--json", help="Last stdout line: one JSON object.")
-    ] = False,
+    config: Annotated[Path, typer.Argument(help="Study configuration (TOML with a study table).")],
+    out_dir: OutDirOption = None,
+    as_json: JsonOption = False,
     workers: Annotated[
         int | None, typer.Option("--workers", help="Local worker processes (default: cores).")
     ] = None,

@@ -9,18 +9,14 @@ from typing import Annotated
 
 import typer
 
-from sysid_core.cli import app, err, out
+from sysid_core.cli import JsonOption, OutDirOption, app, err, out
 
 
 @app.command("tune")
 def tune_cmd(
     config: Annotated[Path, typer.Argument(help="Configuration file (TOML).")],
-    out_dir: Annotated[
-        Path | None, typer.Option("--out", help="Output directory (default: runs/<config>).")
-    ] = None,
-    as_json: Annotated[
-        bool, typer.Option("--json", help="Last stdout line: one JSON object.")
-    ] = False,
+    out_dir: OutDirOption = None,
+    as_json: JsonOption = False,
     resume: Annotated[
         bool, typer.Option("--resume", help="Continue the run in --out without re-measuring.")
     ] = False,
