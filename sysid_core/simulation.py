@@ -157,12 +157,9 @@ class GyroTruth:
         base = self.K0 + sum(
             w_rest[p] * self.Kp[p] for p in range(self.n_electrodes) if p not in (a, b)
         )
+        from sysid_core.tuning import degenerate_w
 
-        def sv(x: np.ndarray) -> np.ndarray:
-            return np.array([x[0, 0], x[0, 1], x[1, 1]])
-
-        lhs = np.column_stack([sv(self.Kp[a]), sv(self.Kp[b]), -sv(self.M)])
-        wa, wb, _ = np.linalg.solve(lhs, -sv(base))
+        wa, wb, _ = degenerate_w(base, self.Kp[a], self.Kp[b], self.M)
         bias = np.zeros(self.n_electrodes)
         bias[a] = self.structure_potential - np.sqrt(wa)
         bias[b] = self.structure_potential - np.sqrt(wb)

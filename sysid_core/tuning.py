@@ -31,6 +31,7 @@ __all__ = [
     "BiasSpace",
     "TuningResult",
     "bias_from_w",
+    "degenerate_w",
     "frequencies_from_w",
     "spread_program",
     "w_interval",
@@ -42,6 +43,22 @@ _SVEC = np.diag([1.0, SQRT2, 1.0])
 
 def _sv(x: np.ndarray) -> np.ndarray:
     return _SVEC @ np.array([x[0, 0], x[1, 0], x[1, 1]])
+
+
+def degenerate_w(
+    k_base: np.ndarray, k_a: np.ndarray, k_b: np.ndarray, m: np.ndarray
+) -> tuple[float, float, float]:
+    """Exact two-electrode degeneracy: solve ``k_base + w_a k_a + w_b k_b = lam m``.
+
+    Three linear equations (the entries of a symmetric 2x2) in ``(w_a, w_b, lam)``; the
+    modal frequencies are then both ``sqrt(lam) / 2 pi``.
+    """
+    def entries(x: np.ndarray) -> np.ndarray:
+        return np.array([x[0, 0], x[0, 1], x[1, 1]])
+
+    lhs = np.column_stack([entries(k_a), entries(k_b), -entries(m)])
+    w_a, w_b, lam = np.linalg.solve(lhs, -entries(k_base))
+    return float(w_a), float(w_b), float(lam)
 
 
 def w_interval(v_gyro: float, low: float, high: float) -> tuple[float, float]:

@@ -7,6 +7,7 @@ import pytest
 
 from sysid_core.data import make_dataset
 from sysid_core.simulation import GyroTruth, LowPass
+from sysid_core.tuning import degenerate_w
 
 TWO_PI = 2 * np.pi
 V_GYRO = 15.58
@@ -68,11 +69,7 @@ def simulate(
 def degenerate_bias(model) -> np.ndarray:
     """Two-electrode biases with K(w) = lambda M for a fitted model (linear solve)."""
 
-    def sv(x):
-        return np.array([x[0, 0], x[0, 1], x[1, 1]])
-
-    lhs = np.column_stack([sv(model.Kp[0]), sv(model.Kp[1]), -sv(model.M)])
-    wa, wb, _ = np.linalg.solve(lhs, -sv(model.K0))
+    wa, wb, _ = degenerate_w(model.K0, model.Kp[0], model.Kp[1], model.M)
     return model.structure_potential - np.sqrt([wa, wb])
 
 

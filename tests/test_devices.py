@@ -11,6 +11,7 @@ from sysid_simgyro.physics import differential_phase_deg
 
 from sysid_core.errors import BiasLimitError, ConfigError
 from sysid_core.registry import Registry
+from sysid_core.tuning import degenerate_w
 
 TWO_PI = 2 * np.pi
 LSB = 20.0 / 2**16
@@ -36,12 +37,7 @@ def degenerate_bias(device: SimulatedGyro, pair: tuple[int, int]) -> tuple[np.nd
     base = truth.K0 + sum(
         w_rest[p] * truth.Kp[p] for p in range(truth.n_electrodes) if p not in pair
     )
-
-    def entries(x: np.ndarray) -> np.ndarray:
-        return np.array([x[0, 0], x[0, 1], x[1, 1]])
-
-    lhs = np.column_stack([entries(truth.Kp[a]), entries(truth.Kp[b]), -entries(truth.M)])
-    wa, wb, lam = np.linalg.solve(lhs, -entries(base))
+    wa, wb, lam = degenerate_w(base, truth.Kp[a], truth.Kp[b], truth.M)
     bias = np.zeros(truth.n_electrodes)
     bias[a] = truth.structure_potential - np.sqrt(wa)
     bias[b] = truth.structure_potential - np.sqrt(wb)

@@ -91,13 +91,10 @@ class Minimax(Objective):
         say = progress or (lambda _msg: None)
         solves = iterations = 0
         n_pts, n_par = problem.n_points, problem.n_parameters
-        # The least-squares fit (one cheap solve) sets the residual scale and the first points.
-        ls = solver.solve(least_squares_program(problem))
-        r = problem.residuals(ls.x[:n_par])
         if not self.working_set:
             points = np.arange(n_pts)
             sol = solver.solve(minimax_program(problem, points))
-            solves, iterations = 2, ls.iterations + sol.iterations
+            solves, iterations = 1, sol.iterations
             theta, gamma = sol.x[:n_par], float(sol.x[n_par])
             say(f"minimax (full program, {n_pts} points): gamma = {gamma:.6g}")
             if self.tie_tol > 0 and gamma > _FLOOR:
@@ -105,7 +102,7 @@ class Minimax(Objective):
                 sol = solver.solve(
                     tie_break_program(problem, points, gamma * (1 + self.tie_tol), scale)
                 )
-                solves, iterations = 3, iterations + sol.iterations
+                solves, iterations = 2, iterations + sol.iterations
                 theta = sol.x[:n_par]
             r = problem.residuals(theta)
             return ObjectiveResult(
@@ -121,7 +118,9 @@ class Minimax(Objective):
             )
 
         batch = self.batch or max(8, problem.n_parameters // 2)
-        # Start from the largest residuals of the least-squares fit, peaks first.
+        # Start from the largest residuals of the (cheap) least-squares fit, peaks first.
+        ls = solver.solve(least_squares_program(problem))
+        r = problem.residuals(ls.x[:n_par])
         ws = _WorkingSet(problem, solver, self, batch, say)
         ws.in_set[_select(r, -np.inf, ws.in_set, n_par + 1, problem.experiment)] = True
         ws.solves, ws.iterations, ws.r = 1, ls.iterations, r
