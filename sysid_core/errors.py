@@ -16,14 +16,19 @@ __all__ = [
     "DeviceError",
     "DimensionError",
     "FitError",
+    "FitWarning",
     "FrequencyGridError",
     "MissingBiasError",
+    "ModelError",
     "NonFiniteDataError",
     "PluginError",
     "PluginNotFoundError",
     "RankConditionError",
+    "RunLockedError",
+    "RunsFailedError",
     "SolverError",
     "SysidError",
+    "SysidWarning",
     "TooFewExperimentsError",
     "UnreachableTuningError",
 ]
@@ -110,3 +115,31 @@ class UnreachableTuningError(SysidError, RuntimeError):
         super().__init__(message)
         self.best_bias = best_bias
         self.best_value = best_value
+
+
+class ModelError(SysidError, ValueError):
+    """A fitted model was asked for something outside its domain.
+
+    For example a non-finite bias, or a bias at which the model's stiffness is not positive
+    definite (no oscillating modes there).
+    """
+
+
+class RunLockedError(SysidError, RuntimeError):
+    """Another process is working in the same run folder."""
+
+
+class RunsFailedError(SysidError, RuntimeError):
+    """Some runs of a batch (a study, a fleet) failed; the others' results were kept."""
+
+
+class SysidWarning(UserWarning):
+    """Base class of every warning issued by sysid-toolkit."""
+
+
+class FitWarning(SysidWarning):
+    """A fit completed but its result is probably meaningless.
+
+    Issued for data that are constant or show no resonance, and for fitted modes outside the
+    data's frequency span.
+    """
