@@ -398,9 +398,16 @@ class FitProblem:
         return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(36 * k, n_x))
 
     def to_model(self, result: ObjectiveResult, **meta: object) -> FittedModel:
-        """Map a scaled solution back to physical units as a :class:`FittedModel`."""
-        from sysid_core.model import FittedModel
+        """Map a scaled solution back to physical units as a :class:`FittedModel`.
 
+        The model's channel names (``outputs``, ``inputs``) are the data set's ``output`` and
+        ``input`` coordinates.
+        """
+        from sysid_core.model import DEFAULT_INPUTS, DEFAULT_OUTPUTS, FittedModel
+
+        coords = self.dataset.coords
+        outputs = coords["output"].values if "output" in coords else DEFAULT_OUTPUTS
+        inputs = coords["input"].values if "input" in coords else DEFAULT_INPUTS
         s, lay, th = self.scaling, self.layout, result.theta
         m = sym(th[lay.M])
         c = s.omega0 * s.eps * sym(th[lay.C])
@@ -431,6 +438,8 @@ class FitProblem:
             structure_potential=self.structure_potential,
             gamma=result.gamma * s.psi_scale,
             max_residual=result.max_residual * s.psi_scale,
+            outputs=[str(name) for name in outputs],
+            inputs=[str(name) for name in inputs],
             meta={
                 "objective": result.objective,
                 "certified": result.certified,
