@@ -1,28 +1,62 @@
 """The ``sysid`` command-line program.
 
-Errors of the toolkit are printed as one line on stderr with a non-zero exit status, never a
-traceback (set ``SYSID_DEBUG=1`` to see one).
+Exit status: 0 on success; 2 for a usage error (with the usual usage message); 130 when
+interrupted (Ctrl-C), with one line saying how to resume; 1 for every other failure, with one
+line ``sysid: error: ...`` on stderr and no traceback (set ``SYSID_DEBUG=1`` to see one). A
+failure that is a bug in the toolkit says so (``sysid: internal error: ...``), also with 1.
+
+Each command handles its own failures (:func:`command`), so the exit status does not depend on
+how the installed typer/click versions treat exceptions; usage errors are left to typer.
 """
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import sys
 import warnings
+from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, TypeVar
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # small dense algebra: one thread is faster
 
-import click
 import typer
-from rich.console import Console
+from rich.console import Console, ConsoleDimensions
 from rich.table import Table
 
+from sysid_core import __version__
 from sysid_core.errors import SysidError
 
-__all__ = ["app", "main"]
+__all__ = ["Interrupted", "app", "command", "main"]
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+class _Console(Console):
+    """A rich console that never cuts lines when its stream is not a terminal (pipes, logs)."""
+
+    @property
+    def size(self) -> ConsoleDimensions:
+        if not self.is_terminal:
+            return ConsoleDimensions(100_000, 25)
+        return Console.size.fget(self)  # type: ignore[attr-defined]
+
+    @size.setter
+    def size(self, new_size: tuple[int, int]) -> None:
+        Console.size.fset(self, new_size)  # type: ignore[attr-defined]
+
+
+err = _Console(stderr=True, soft_wrap=True)
+out = _Console(soft_wrap=True)
+
+
+def _version(value: bool) -> None:
+    if value:
+        print(f"sysid {__version__}")
+        raise typer.Exit()
+
 
 app = typer.Typer(
     name="sysid",
@@ -31,8 +65,19 @@ app = typer.Typer(
     add_completion=False,
     pretty_exceptions_enable=False,
 )
-err = Console(stderr=True)
-out = Console()
+
+
+@app.callback()
+def _root(
+    version: Annotated[
+        bool,
+        typer.Option(
+            "--version", callback=_version, is_eager=True, help="Print the version and exit."
+        ),
+    ] = False,
+) -> None:
+    """Identify and tune electrostatically tuned vibratory gyros (Kim & M'Closkey 2006)."""
+
 
 #: Options shared by the commands that run a configuration file.
 OutDirOption = Annotated[
@@ -41,13 +86,58 @@ OutDirOption = Annotated[
 JsonOption = Annotated[bool, typer.Option("--json", help="Last stdout line: one JSON object.")]
 
 
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C, with a message saying how to continue (exit status 130)."""
+
+
+def _failure(exc: BaseException) -> tuple[str, int]:
+    """The one line and the exit status for an exception that ends a command."""
+    if isinstance(exc, KeyboardInterrupt):
+        return f"sysid: {exc or 'interrupted'}", 130
+    if isinstance(exc, SysidError):
+        return f"sysid: error: {exc}", 1
+    if isinstance(exc, OSError):
+        where = f"{exc.filename}: " if exc.filename else ""
+        return f"sysid: error: {where}{exc.strerror or exc}", 1
+    if isinstance(exc, MemoryError):
+        return "sysid: error: out of memory (reduce the sweep sizes or the data)", 1
+    return (
+        f"sysid: internal error: {type(exc).__name__}: {exc} (this is a bug in sysid-toolkit; "
+        "please report it with the output of SYSID_DEBUG=1)",
+        1,
+    )
+
+
+def command(name: str) -> Callable[[F], F]:
+    """Register a command whose failures become one line and an exit status (see module)."""
+
+    def decorate(func: F) -> F:
+        @functools.wraps(func)
+        def guarded(*args: Any, **kwargs: Any) -> Any:
+            try:
+                return func(*args, **kwargs)
+            except (SystemExit, typer.Exit, typer.Abort):
+                raise
+            except BaseException as exc:
+                if os.environ.get("SYSID_DEBUG") and not isinstance(exc, KeyboardInterrupt):
+                    raise
+                line, code = _failure(exc)
+                print(line, file=sys.stderr)
+                raise SystemExit(code) from None
+
+        app.command(name)(guarded)
+        return func
+
+    return decorate
+
+
 def _registry():
     from sysid_core.registry import get_registry
 
     return get_registry()
 
 
-@app.command("plugins")
+@command("plugins")
 def plugins_cmd(
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of a table.")] = False,
 ) -> None:
@@ -79,7 +169,7 @@ def plugins_cmd(
         err.print(f"[yellow]warning:[/] {message}")
 
 
-@app.command("fit")
+@command("fit")
 def fit_cmd(
     data: Annotated[Path, typer.Argument(help="Data set (netCDF, see sysid_core.data).")],
     model: Annotated[str, typer.Option("--model", help="Model structure: act or sen.")] = "act",
@@ -89,8 +179,12 @@ def fit_cmd(
         str, typer.Option("--objective", help="Fit objective: minimax or least-squares.")
     ] = "minimax",
     out_path: Annotated[
-        Path | None, typer.Option("--out", help="Write the model here (netCDF).")
+        Path | None,
+        typer.Option("--out", help="Write the model here (netCDF; default DATA.model.nc)."),
     ] = None,
+    force: Annotated[
+        bool, typer.Option("--force", help="Replace an existing model file.")
+    ] = False,
     as_json: Annotated[
         bool, typer.Option("--json", help="Last stdout line: one JSON object.")
     ] = False,
@@ -98,13 +192,16 @@ def fit_cmd(
     """Fit one bias-dependent model to every experiment of DATA and report it."""
     from sysid_core.data import load_dataset
     from sysid_core.fit import fit
+    from sysid_core.io import check_output_file
 
+    target = out_path or data.with_name(f"{data.stem}.model.nc")
+    check_output_file(target, inputs=[data], force=force)
     ds = load_dataset(data)
     with err.status("fitting ...") as status:
         fitted = fit(
             ds, model, order, objective, solver, progress=lambda m: status.update(f"fitting: {m}")
         )
-    target = out_path or data.with_name(f"{data.stem}.model.nc")
+    check_output_file(target, inputs=[data], force=force)  # nothing appeared meanwhile
     fitted.save(target)
     bias = ds["bias"].values
     reports = [fitted.modal(b) for b in bias]
@@ -157,13 +254,10 @@ def fit_cmd(
 
 def _register_late_commands() -> None:
     """Commands defined in other modules (kept out of the import of this one)."""
-    try:
-        from sysid_core import (
-            cli_study,  # noqa: F401
-            cli_tune,  # noqa: F401
-        )
-    except ImportError:  # pragma: no cover - during partial installs
-        pass
+    from sysid_core import (
+        cli_study,  # noqa: F401
+        cli_tune,  # noqa: F401
+    )
 
 
 def _format_warning(
@@ -173,42 +267,20 @@ def _format_warning(
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``sysid`` program; returns the exit status."""
+    """Entry point of the ``sysid`` program; returns the exit status (see the module)."""
     warnings.formatwarning = _format_warning
     _register_late_commands()
-    debug = bool(os.environ.get("SYSID_DEBUG"))
     try:
-        app(args=argv, prog_name="sysid", standalone_mode=False)
-    except click.exceptions.Exit as exc:
-        return int(exc.exit_code)
-    except click.ClickException as exc:
-        exc.show()
-        return int(exc.exit_code)
-    except click.exceptions.Abort:
-        err.print("sysid: aborted")
-        return 130
-    except KeyboardInterrupt:
-        print("sysid: interrupted", file=sys.stderr)
-        return 130
-    except SysidError as exc:
-        if debug:
+        app(args=argv, prog_name="sysid", standalone_mode=True)
+    except SystemExit as exc:
+        code = exc.code
+        return code if isinstance(code, int) else (0 if code is None else 1)
+    except BaseException as exc:  # outside a command (e.g. Ctrl-C while starting up)
+        if os.environ.get("SYSID_DEBUG") and not isinstance(exc, KeyboardInterrupt):
             raise
-        print(f"sysid: error: {exc}", file=sys.stderr)
-        return 1
-    except (OSError, ValueError) as exc:
-        if debug:
-            raise
-        print(f"sysid: error: {type(exc).__name__}: {exc}", file=sys.stderr)
-        return 1
-    except Exception as exc:  # a bug: still one line, with the way to get the traceback
-        if debug:
-            raise
-        print(
-            f"sysid: internal error: {type(exc).__name__}: {exc} "
-            "(set SYSID_DEBUG=1 for a traceback)",
-            file=sys.stderr,
-        )
-        return 2
+        line, code = _failure(exc)
+        print(line, file=sys.stderr)
+        return code
     return 0
 
 

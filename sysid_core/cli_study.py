@@ -27,16 +27,26 @@ def study_cmd(
     ] = "dask",
     no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip the PNG figures.")] = False,
 ) -> None:
-    """Tune from every start point of a grid, with each model; compare with the truth."""
+    """Tune from every start point of a grid, with each model; compare with the truth.
+
+    Every run is checked before any starts. If some runs fail, the others' results and every
+    output are still written, then the command fails (exit status 1) naming the first failed
+    run; running the same command again retries only the failed runs.
+    """
+    import shlex
+    import sys
+
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from sysid_core.errors import ConfigError
-    from sysid_core.study import load_study_config, run_study
+    from sysid_core.errors import ConfigError, RunsFailedError
+    from sysid_core.study import failure_message, load_study_config, plan_study, run_study
 
     if executor not in ("dask", "local"):
         raise ConfigError(f"--executor must be 'dask' or 'local', not {executor!r}")
     cfg = load_study_config(config)
     target = out_dir or Path("runs") / config.stem
+    plan_study(cfg, target)  # refuse a bad study before showing progress (run_study re-checks)
+    command = "sysid " + " ".join(shlex.quote(a) for a in sys.argv[1:])
     with Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -44,20 +54,18 @@ def study_cmd(
         TimeElapsedColumn(),
         console=err,
         transient=as_json,
+        disable=as_json and not err.is_terminal,  # --json into a file or pipe: errors only
     ) as bar:
         task = bar.add_task("study", total=None)
 
         def progress(done: int, total: int, message: str) -> None:
             bar.update(task, completed=done, total=total, description=message[:60])
-            if "failed" in message:
+            if "failed" in message and not as_json:
                 err.print(f"[yellow]{message}[/]")
 
-        import shlex
-        import sys
-
-        command = "sysid " + " ".join(shlex.quote(a) for a in sys.argv[1:])
-        full = run_study(cfg, target, executor, workers, scheduler, progress,
-                         plots=not no_plots, command=command)
+        full = run_study(
+            cfg, target, executor, workers, scheduler, progress, plots=not no_plots, command=command
+        )
     primary = full["summary"][full["primary_objective"]]
     if as_json:
         keys = ("runs", "mean_bias", "std_bias", "under_10mHz", "under_300mHz", "median_split_hz")
@@ -67,17 +75,18 @@ def study_cmd(
         }
         compact["by_objective"] = full["summary"]
         compact["elapsed_s"] = full["elapsed_s"]
-        print(json.dumps(compact))
-        return
-    for obj, per_model in full["summary"].items():
-        for model, per_it in per_model.items():
-            for it, v in per_it.items():
-                out.print(
-                    f"{obj:>13} {model} iteration {it}: {v['runs']} runs, mean bias "
-                    f"{v['mean_bias']}, std {v['std_bias']}, true split < 10 mHz: "
-                    f"{v['under_10mHz']}, < 300 mHz: {v['under_300mHz']}, median "
-                    f"{(v['median_split_hz'] or float('nan')) * 1e3:.2f} mHz"
-                )
-    if full["failures"]:
-        out.print(f"[yellow]{len(full['failures'])} run(s) failed; see {target}/summary.json[/]")
-    out.print(f"{full['runs']} runs in {full['elapsed_s']:.0f} s; results in {target}/")
+        compact["failed"] = full["failed"]
+        print(json.dumps(compact), flush=True)
+    else:
+        for obj, per_model in full["summary"].items():
+            for model, per_it in per_model.items():
+                for it, v in per_it.items():
+                    out.print(
+                        f"{obj:>13} {model} iteration {it}: {v['runs']} runs, mean bias "
+                        f"{v['mean_bias']}, std {v['std_bias']}, true split < 10 mHz: "
+                        f"{v['under_10mHz']}, < 300 mHz: {v['under_300mHz']}, median "
+                        f"{(v['median_split_hz'] or float('nan')) * 1e3:.2f} mHz"
+                    )
+        out.print(f"{full['runs']} runs in {full['elapsed_s']:.0f} s; results in {target}/")
+    if full["failed"]:
+        raise RunsFailedError(failure_message(full))

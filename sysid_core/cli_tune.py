@@ -3,16 +3,17 @@
 from __future__ import annotations
 
 import json
+import shlex
 import time
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from sysid_core.cli import JsonOption, OutDirOption, app, err, out
+from sysid_core.cli import Interrupted, JsonOption, OutDirOption, command, err, out
 
 
-@app.command("tune")
+@command("tune")
 def tune_cmd(
     config: Annotated[Path, typer.Argument(help="Configuration file (TOML).")],
     out_dir: OutDirOption = None,
@@ -22,12 +23,20 @@ def tune_cmd(
     ] = False,
     no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip the PNG report.")] = False,
 ) -> None:
-    """Tune a gyro: identify, compute the biases, verify, iterate (paper Sec. II-D)."""
+    """Tune a gyro: identify, compute the biases, verify, iterate (paper Sec. II-D).
+
+    Exits 0 only when the run converged (a verified split under the acceptance and every goal
+    of the criterion met); 1 when it did not, with every result saved in --out.
+    """
     from sysid_core.config import load_config
+    from sysid_core.errors import NotConvergedError
     from sysid_core.pipeline import TuningRun
 
     cfg = load_config(config)
     target = out_dir or Path("runs") / config.stem
+    resume_cmd = (
+        f"sysid tune {shlex.quote(str(config))} --out {shlex.quote(str(target))} --resume"
+    )
     with err.status("starting ...") as status:
 
         def progress(message: str) -> None:
@@ -36,23 +45,29 @@ def tune_cmd(
                 err.print(f"[dim]{time.strftime('%H:%M:%S')}[/dim] {message}", highlight=False)
 
         run = TuningRun(cfg, target, resume=resume, progress=progress, plots=not no_plots)
-        summary = run.run()
+        try:
+            summary = run.run()
+        except KeyboardInterrupt:
+            raise Interrupted(
+                f"interrupted; every measurement so far is saved in {target}/. "
+                f"Continue with: {resume_cmd}"
+            ) from None
     if as_json:
         print(json.dumps({k: v for k, v in summary.as_dict().items() if k != "history"}))
-        return
-    state = "converged" if summary.converged else "NOT converged"
-    out.print(
-        f"{summary.device}: {state} after {summary.iterations} iteration(s), "
-        f"{summary.experiments} measurements"
-    )
-    out.print(
-        "final bias: "
-        + ", ".join(
-            f"{e} = {b:.4f} V" for e, b in zip(summary.electrodes, summary.bias, strict=True)
+    else:
+        out.print(
+            f"{summary.device}: {summary.status}", highlight=False
         )
-    )
-    out.print(
-        f"measured split {summary.split_hz * 1e3:.2f} mHz at {summary.frequency_hz:.3f} Hz "
-        f"(acceptance {cfg.tuning.acceptance_hz * 1e3:.1f} mHz)"
-    )
-    out.print(f"results and plots in {target}/ (summary.json, bias_path.png, iterNN/)")
+        out.print(
+            "final bias: "
+            + ", ".join(
+                f"{e} = {b:.4f} V" for e, b in zip(summary.electrodes, summary.bias, strict=True)
+            )
+        )
+        out.print(f"results and plots in {target}/ (summary.json, bias_path.png, iterNN/)")
+    if not summary.converged:
+        raise NotConvergedError(
+            f"{summary.status}; results in {target}/ (run again with more [tuning] "
+            f"max_iterations in a new --out, or inspect {target}/summary.json)",
+            summary,
+        )

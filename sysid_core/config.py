@@ -8,7 +8,7 @@ Tables (DESIGN.md §3)::
     [tuning]        criterion, start_bias, acceptance_hz, max_iterations, target_hz,
                     electrodes (subset to tune), tolerance_hz
     [experiment]    band_hz, resolution_hz, bias_step, refine_span_hz, refine_resolution_hz,
-                    verify_span_hz, verify_resolution_hz, timeout_s
+                    verify_span_hz, verify_resolution_hz, max_points, timeout_s
 
 Unknown keys are an error that names the key and its table.
 """
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import tomllib
 from pathlib import Path
@@ -97,6 +98,9 @@ class ExperimentConfig(_Strict):
     cloverleaf with 1.25 % feedthrough from the native state (3 seeds), two iterations then leave
     0.4-1.7 mHz (10 Hz at 0.1 Hz: 1.4-2.8 mHz) instead of 23-74 mHz with the whole band, because
     the band edges, where feedthrough dominates the response, no longer bias the fit.
+
+    ``max_points`` (default 20 000) bounds the points of any sweep: a resolution typed wrong
+    (``1e-6``) is refused before anything is measured instead of running for days.
     """
 
     band_hz: tuple[float, float] | None = None
@@ -106,7 +110,17 @@ class ExperimentConfig(_Strict):
     refine_resolution_hz: float = Field(0.05, gt=0)
     verify_span_hz: float = Field(1.0, gt=0)
     verify_resolution_hz: float = Field(0.01, gt=0)
+    max_points: int = Field(20_000, ge=11)
     timeout_s: float | None = Field(None, gt=0)
+
+    @field_validator("band_hz")
+    @classmethod
+    def _ordered(cls, v: tuple[float, float] | None) -> tuple[float, float] | None:
+        if v is not None and not (math.isfinite(v[0]) and math.isfinite(v[1]) and 0 < v[0] < v[1]):
+            raise ValueError(
+                f"must be [low, high] in Hz with 0 < low < high, got [{v[0]}, {v[1]}]"
+            )
+        return v
 
 
 class PipelineConfig(_Strict):
@@ -125,20 +139,30 @@ class PipelineConfig(_Strict):
 
 
 def _describe(err: ValidationError) -> str:
+    """One line naming every bad key, its table, the value given and what is expected."""
     parts = []
     for e in err.errors():
         loc = [str(x) for x in e["loc"]]
-        where = f"[{loc[0]}]" + (f" {'.'.join(loc[1:])}" if len(loc) > 1 else "")
+        # an index into a list or tuple names its key, not a key of its own
+        keys = [x for x in loc[1:] if not x.isdigit()]
+        where = f"[{loc[0]}]" + (f" {'.'.join(keys)}" if keys else "")
+        msg = str(e["msg"]).removeprefix("Value error, ")
         if e["type"] == "extra_forbidden":
             parts.append(
                 f"unknown key {loc[-1]!r} in [{loc[0]}]"
                 if len(loc) > 1
                 else f"unknown table [{loc[0]}]"
             )
+        elif e["type"] == "missing" and loc[-1].isdigit():
+            parts.append(f"{where}: too few values")
         elif e["type"] == "missing":
             parts.append(f"missing key {where}")
+        elif e["type"] == "too_long":
+            parts.append(f"{where}: too many values")
         else:
-            parts.append(f"{where}: {e['msg']}")
+            given = e.get("input")
+            shown = f" = {given!r}" if isinstance(given, (str, int, float, bool)) else ""
+            parts.append(f"{where}{shown}: {msg}")
     return "; ".join(parts)
 
 
@@ -155,8 +179,18 @@ def read_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
     path = Path(path)
     if not path.exists():
         raise ConfigError(f"no configuration file at {path}")
+    if not path.is_file():
+        raise ConfigError(f"{path} is not a file; give a TOML configuration file")
     try:
-        return tomllib.loads(path.read_text())
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise ConfigError(
+            f"{path} is not a text file (not UTF-8); give a TOML configuration file"
+        ) from None
+    except OSError as exc:
+        raise ConfigError(f"cannot read {path}: {exc.strerror}") from None
+    try:
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: not valid TOML: {exc}") from None
 

@@ -52,6 +52,8 @@ __all__ = [
 
 RESPONSE_DIMS = ("experiment", "frequency", "output", "input")
 _RANK_TOL = 1e-9
+#: Range of the largest |response| entry of an experiment that the fit's scaling handles.
+MIN_MAGNITUDE, MAX_MAGNITUDE = 1e-100, 1e100
 
 
 def make_dataset(
@@ -269,8 +271,9 @@ def validate(ds: xr.Dataset) -> xr.Dataset:
     """Check a data set against the schema; return it unchanged or raise a :class:`DataError`.
 
     Rejects, each with its own error class and a message saying what and where: NaN/inf values,
-    wrong dims or shapes, non-increasing or duplicate frequencies, missing biases, fewer than
-    ``n_e + 1`` experiments, and designs that violate the rank condition (6).
+    wrong dims or shapes, non-increasing or duplicate frequencies, missing biases, an experiment
+    whose response is all zero or of absurd magnitude (beyond 1e±100), fewer than ``n_e + 1``
+    experiments, and designs that violate the rank condition (6).
     """
     if not isinstance(ds, xr.Dataset):
         raise DimensionError(f"expected an xarray.Dataset, got {type(ds).__name__}")
@@ -342,6 +345,20 @@ def validate(ds: xr.Dataset) -> xr.Dataset:
     empty = np.flatnonzero(mask.sum(axis=1) < 2)
     if empty.size:
         raise FrequencyGridError(f"experiment {empty[0]} has fewer than 2 measured points")
+    for k in range(values.shape[0]):
+        mag = np.abs(values[k][mask[k]])
+        if not mag.any():
+            raise DataError(
+                f"the response of experiment {k} is all zero: nothing to identify (was the "
+                "analyzer connected and the gyro driven?)"
+            )
+        top = float(mag.max())
+        if not MIN_MAGNITUDE <= top <= MAX_MAGNITUDE:
+            raise DataError(
+                f"the response of experiment {k} peaks at {top:.3g}, outside the range "
+                f"{MIN_MAGNITUDE:g} to {MAX_MAGNITUDE:g} the fit can handle; express it in "
+                "other units (e.g. divide by a constant gain)"
+            )
     check_rank_condition(bias, float(vg), electrodes)
     return ds
 

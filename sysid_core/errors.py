@@ -18,12 +18,16 @@ __all__ = [
     "FitError",
     "FitWarning",
     "FrequencyGridError",
+    "InvalidAnswerError",
     "MissingBiasError",
     "ModelError",
     "NonFiniteDataError",
+    "NotConvergedError",
+    "OutputError",
     "PluginError",
     "PluginNotFoundError",
     "RankConditionError",
+    "RunFolderError",
     "RunLockedError",
     "RunsFailedError",
     "SolverError",
@@ -143,3 +147,33 @@ class FitWarning(SysidWarning):
     Issued for data that are constant or show no resonance, and for fitted modes outside the
     data's frequency span.
     """
+
+
+class OutputError(SysidError, ValueError):
+    """An output path must not be written: an input file, a link, a non-regular file, or an
+    existing file without ``--force``."""
+
+
+class RunFolderError(SysidError, ValueError):
+    """An output folder cannot hold this run (it holds another run, or files that are no run)."""
+
+
+class InvalidAnswerError(DeviceError):
+    """A device answered with something that is not a valid measurement.
+
+    The answer is kept aside for inspection, never used as a measurement.
+    """
+
+
+class NotConvergedError(SysidError, RuntimeError):
+    """A tuning run ended without meeting its goals (every result is still saved).
+
+    Attributes
+    ----------
+    summary : object
+        The run's summary (:class:`sysid_core.pipeline.RunSummary`).
+    """
+
+    def __init__(self, message: str, summary: object = None) -> None:
+        super().__init__(message)
+        self.summary = summary

@@ -3,17 +3,36 @@
 from __future__ import annotations
 
 import time
+import warnings
 from typing import Any
 
+import numpy as np
 import xarray as xr
 from threadpoolctl import threadpool_limits
 
+from sysid_core.data import measured_mask
+from sysid_core.errors import FitWarning
 from sysid_core.interfaces import ModelStructure, Objective, ProgressCallback, Solver
 from sysid_core.model import FittedModel
 from sysid_core.problem import FitProblem
 from sysid_core.registry import get_registry
 
-__all__ = ["fit"]
+__all__ = ["RESONANCE_RATIO", "check_fit", "fit"]
+
+#: An experiment whose largest response is less than this many times its smallest shows no
+#: resonance (a narrow window beside the modes, or a disconnected sensor).
+RESONANCE_RATIO = 1.5
+
+
+def _component(value: Any, cls: type, what: str, kind: str, **options: Any) -> Any:
+    if isinstance(value, cls):
+        return value
+    if isinstance(value, str):
+        return get_registry().create(kind, value, **options)
+    raise TypeError(
+        f"{what} must be a name (str) or a {cls.__name__}, not {type(value).__name__} "
+        f"({value!r})"
+    )
 
 
 def fit(
@@ -50,21 +69,87 @@ def fit(
     FittedModel
         In physical units; ``model.meta`` holds the fit time, objective, solver and sizes.
 
+    Raises
+    ------
+    TypeError
+        For arguments of the wrong type.
+    DataError
+        For data that cannot be fitted (see :func:`sysid_core.data.validate`).
+
+    Warns
+    -----
+    FitWarning
+        When the result is probably meaningless (:func:`check_fit`).
+
     Examples
     --------
     >>> model = fit(load_dataset("examples/cloverleaf-3exp.nc"), "act", order=1)  # doctest: +SKIP
     >>> model.modal([2.04, 4.39]).split_hz  # doctest: +SKIP
     """
-    reg = get_registry()
-    if isinstance(structure, str):
-        structure = reg.create("model structure", structure, order=order)
-    if isinstance(objective, str):
-        objective = reg.create("objective", objective, **(objective_options or {}))
-    if isinstance(solver, str):
-        solver = reg.create("solver", solver, **(solver_options or {}))
+    if not isinstance(dataset, xr.Dataset):
+        raise TypeError(
+            f"dataset must be an xarray.Dataset (see sysid_core.load_dataset), not "
+            f"{type(dataset).__name__}"
+        )
+    structure = _component(structure, ModelStructure, "structure", "model structure", order=order)
+    objective = _component(
+        objective, Objective, "objective", "objective", **(objective_options or {})
+    )
+    solver = _component(solver, Solver, "solver", "solver", **(solver_options or {}))
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be callable, not {type(progress).__name__}")
     t0 = time.perf_counter()
     with threadpool_limits(limits=1, user_api="blas"):
         problem = FitProblem(dataset, structure)
         result = objective.fit(problem, solver, progress)
     elapsed = time.perf_counter() - t0
-    return problem.to_model(result, solver=solver.name, fit_time_s=elapsed)
+    model = problem.to_model(result, solver=solver.name, fit_time_s=elapsed)
+    for message in check_fit(dataset, model):
+        warnings.warn(message, FitWarning, stacklevel=2)
+    return model
+
+
+def check_fit(dataset: xr.Dataset, model: FittedModel) -> list[str]:
+    """Reasons to distrust a fit of ``dataset``: data without resonance, modes outside the data.
+
+    Returns one message per finding (empty when nothing is suspicious):
+
+    * an experiment whose largest response is less than :data:`RESONANCE_RATIO` times its
+      smallest (constant data, or a window with no mode in it);
+    * a fitted modal frequency, at an experiment's bias, outside that experiment's measured
+      frequencies (the model extrapolates: its modes are guesses).
+    """
+    found: list[str] = []
+    mask = measured_mask(dataset)
+    f = np.asarray(dataset["frequency"].values, dtype=float)
+    bias = np.asarray(dataset["bias"].values, dtype=float)
+    flat = []
+    for k in range(mask.shape[0]):
+        s = np.linalg.norm(np.asarray(dataset["response"].values[k])[mask[k]], 2, axis=(-2, -1))
+        if s.max() < RESONANCE_RATIO * max(s.min(), 1e-300):
+            flat.append(k)
+    if flat:
+        found.append(
+            f"experiment(s) {flat} show no resonance (largest response less than "
+            f"{RESONANCE_RATIO:g} times the smallest): the fitted modes are not supported by "
+            "the data; measure over the band where the modes are"
+        )
+    outside = []
+    for k in range(mask.shape[0]):
+        lo, hi = f[mask[k]].min(), f[mask[k]].max()
+        try:
+            modes = model.modal(bias[k]).frequencies_hz
+        except ValueError:  # no oscillating modes at this bias: as bad as outside
+            outside.append(f"experiment {k}: no oscillating modes")
+            continue
+        if modes.min() < lo or modes.max() > hi:
+            outside.append(
+                f"experiment {k}: {modes[0]:.4g} / {modes[1]:.4g} Hz outside {lo:.6g}-{hi:.6g} Hz"
+            )
+    if outside:
+        found.append(
+            "fitted modes lie outside the measured frequencies ("
+            + "; ".join(outside)
+            + "): the model extrapolates; measure over a band that contains both modes"
+        )
+    return found

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
@@ -29,12 +30,14 @@ if TYPE_CHECKING:
 
 __all__ = [
     "Device",
+    "Goal",
     "ModelStructure",
     "Objective",
     "ProgressCallback",
     "Solver",
     "TuningCriterion",
     "check_options",
+    "typed_option",
 ]
 
 #: Receives one-line progress messages from long computations.
@@ -47,6 +50,41 @@ def check_options(kind: str, name: str, given: dict[str, Any], allowed: Sequence
         if key not in allowed:
             known = ", ".join(sorted(allowed)) or "none"
             raise ConfigError(f"unknown option {key!r} for {kind} {name!r}; known options: {known}")
+
+
+def typed_option(
+    kind: str,
+    name: str,
+    key: str,
+    value: Any,
+    expected: type,
+    *,
+    minimum: float | None = None,
+    positive: bool = False,
+) -> Any:
+    """``value`` of option ``key`` checked against ``expected`` (bool, int or float) and bounds.
+
+    Raises
+    ------
+    ConfigError
+        Naming the component, the option, the value given and what it must be.
+    """
+    number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+        value, bool
+    )
+    if expected is bool:
+        ok, what = isinstance(value, bool), "true or false"
+    elif expected is int:
+        ok, what = number and float(value).is_integer(), "an integer"
+    else:
+        ok, what = number and bool(np.isfinite(value)), "a finite number"
+    if ok and positive and not value > 0:
+        ok, what = False, f"{what} > 0 (positive)"
+    elif ok and minimum is not None and not value >= minimum:
+        ok, what = False, f"{what} >= {minimum:g}"
+    if not ok:
+        raise ConfigError(f"option {key!r} of {kind} {name!r} must be {what}, got {value!r}")
+    return expected(value)
 
 
 class ModelStructure(ABC):
@@ -136,6 +174,43 @@ class Objective(ABC):
         """Return the scaled parameter vector that optimises this objective on ``problem``."""
 
 
+@dataclass(frozen=True)
+class Goal:
+    """One goal of a tuning criterion, checked on a verified measurement.
+
+    Attributes
+    ----------
+    name : str
+        What is measured (``"split"``, ``"frequency error"``).
+    value_hz : float
+        Its measured value (Hz).
+    limit_hz : float
+        The largest value that meets the goal (Hz).
+    """
+
+    name: str
+    value_hz: float
+    limit_hz: float
+
+    @property
+    def met(self) -> bool:
+        """The measured value is within the limit."""
+        return bool(self.value_hz <= self.limit_hz)
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-friendly form."""
+        return {
+            "name": self.name,
+            "value_hz": float(self.value_hz),
+            "limit_hz": float(self.limit_hz),
+            "met": self.met,
+        }
+
+    def __str__(self) -> str:
+        sign = "<=" if self.met else ">"
+        return f"{self.name} {self.value_hz * 1e3:.3g} mHz {sign} {self.limit_hz * 1e3:.3g} mHz"
+
+
 class TuningCriterion(ABC):
     """Computes the bias potentials that tune a fitted model.
 
@@ -145,6 +220,15 @@ class TuningCriterion(ABC):
 
     name: ClassVar[str]
     description: ClassVar[str] = ""
+
+    def goals(self, measured_hz: np.ndarray, acceptance_hz: float) -> list[Goal]:
+        """The criterion's goals on the modal frequencies measured by a verification.
+
+        A run counts as converged only when every goal is met. The default is the split:
+        ``f2 - f1 <= acceptance_hz``. A criterion with more goals (a target frequency) adds them.
+        """
+        f = np.sort(np.asarray(measured_hz, dtype=float))
+        return [Goal("split", float(f[1] - f[0]), float(acceptance_hz))]
 
     @abstractmethod
     def solve(self, model: FittedModel, space: BiasSpace) -> TuningResult:

@@ -1,32 +1,35 @@
-"""The tuning loop of the paper (Section II-D, steps 1-4), with safe measuring and resume.
+"""The tuning loop of the paper (Section II-D, steps 1-4): identify, tune, verify, repeat.
 
-1. Design ``n_t + 1`` experiments around the current bias (eq. 18: one electrode stepped at a
-   time, stepping down where up would leave the limits); check the rank condition (6) first.
-   The first iteration sweeps the whole band; later ones a narrower span around the last
-   measured modal frequency (``refine_span_hz``, see :class:`~sysid_core.config.ExperimentConfig`).
+1. Design ``n_t + 1`` experiments around the current bias (eq. 18) and check the rank condition
+   (6). The first iteration sweeps the whole band; later ones a window around the modes the
+   previous verification measured (:class:`~sysid_core.sweeps.SweepPlan`).
 2. Fit one bias-dependent model to them.
-3. Apply the tuning criterion. If it finds the goal unreachable inside the limits, the run
-   ends with :class:`~sysid_core.errors.UnreachableTuningError`, unless iterations remain and
-   the best reachable bias is more than ``bias_step`` away (the model extrapolated): then the
-   run continues from that bias and a model identified around it decides.
-4. Verify with a dense sweep around the predicted frequency (10 mHz over ±0.5 Hz by default,
-   widened when the modes fall outside) and a single-bias fit of it: the measured split.
+3. Apply the tuning criterion. If it finds its goal unreachable inside the limits, the run ends
+   with :class:`~sysid_core.errors.UnreachableTuningError`, unless iterations remain and the
+   best reachable bias is more than ``bias_step`` away (the model extrapolated): then the run
+   continues from that bias and a model identified around it decides.
+4. Verify at the new bias (:mod:`sysid_core.verification`): a window around the predicted modes;
+   if it does not show both modes, the whole band, to locate them, then a window around them.
+   A split counts as measured only when the evidence says both modes are in the window.
 
-Repeat from the new bias until the split is under ``acceptance_hz`` or ``max_iterations``.
+The run converges when a verification is *verified* and every goal of the criterion is met (the
+split under ``acceptance_hz``; for ``target``, also the frequency error). Otherwise it goes on
+from the new bias, from a whole-band sweep if the modes were not found, until
+``max_iterations``.
 
-Every measurement is written to the output directory (netCDF, atomically) as soon as it
-arrives, before anything else is done with it. A run that stops (device error, timeout,
-interrupt) can be continued with ``resume=True``: the loop is replayed, and every measurement
-already on disk is read instead of measured again.
+Everything is checked before the first measurement: the configuration, every plugin (built
+here), the device's protocol attributes, the bias limits, the sweeps and the first design. Every
+measurement is checked (:mod:`sysid_core.measuring`) and written to the run folder
+(:mod:`sysid_core.runfolder`) before anything else is done with it. A run that stops can be
+continued with ``resume=True``: the loop is replayed and every measurement on disk is read
+instead of measured again.
 """
 
 from __future__ import annotations
 
-import concurrent.futures
-import json
-import math
 import time
-from collections.abc import Callable, Sequence
+import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -43,105 +46,87 @@ from sysid_core.data import (
     save_dataset,
 )
 from sysid_core.errors import (
-    BiasLimitError,
-    ConfigError,
-    DeviceError,
-    SysidError,
+    FitWarning,
+    InvalidAnswerError,
+    RunFolderError,
     UnreachableTuningError,
 )
 from sysid_core.fit import fit
-from sysid_core.interfaces import Device
+from sysid_core.interfaces import (
+    Device,
+    Goal,
+    ModelStructure,
+    Objective,
+    Solver,
+    TuningCriterion,
+)
 from sysid_core.io import write_json
+from sysid_core.measuring import GuardedDevice, check_bias
 from sysid_core.model import FittedModel
 from sysid_core.registry import Registry, get_registry
+from sysid_core.runfolder import RunFolder
+from sysid_core.sweeps import SweepPlan, design_experiments
 from sysid_core.tuning import BiasSpace, TuningResult, frequencies_from_w
+from sysid_core.verification import WindowAssessment, assess_window
 
-__all__ = ["RunSummary", "TuningRun", "check_bias", "design_experiments", "measure_safely"]
+__all__ = ["IterationRecord", "RunSummary", "TuningRun", "Verification"]
 
 Progress = Callable[[str], None]
 
 
-def check_bias(device: Device, bias: Sequence[float]) -> np.ndarray:
-    """The core's safety check: ``bias`` has one finite value per electrode, inside the limits.
+@dataclass
+class Verification:
+    """What the verification of one iteration established.
 
-    Raises
-    ------
-    BiasLimitError
-        Before anything is applied to the device.
+    Attributes
+    ----------
+    status : str
+        ``"verified"`` (a narrow window showed both modes: the split is measured),
+        ``"located"`` (only a whole-band sweep found them: the split is approximate) or
+        ``"failed"`` (no sweep showed both modes).
+    frequencies_hz : ndarray or None
+        The measured (or located) modal frequencies.
+    windows : list of WindowAssessment
+        Every sweep of the verification with its evidence.
+    sweep : xarray.Dataset
+        The last sweep.
+    model : FittedModel
+        The single-bias model of the last sweep.
     """
-    b = np.asarray(bias, dtype=float)
-    n_e = len(device.electrodes)
-    if b.shape != (n_e,):
-        raise BiasLimitError(f"bias has {b.size} value(s); the device has {n_e} electrodes")
-    low, high = device.bias_limits
-    bad = [p for p in range(n_e) if not (np.isfinite(b[p]) and low <= b[p] <= high)]
-    if bad:
-        p = bad[0]
-        raise BiasLimitError(
-            f"refusing to apply {b[p]} V to electrode {device.electrodes[p]}: outside the "
-            f"device's limits [{low}, {high}] V"
-        )
-    return b
 
+    status: str
+    frequencies_hz: np.ndarray | None
+    windows: list[WindowAssessment]
+    sweep: xr.Dataset
+    model: FittedModel
 
-def measure_safely(
-    device: Device,
-    bias: Sequence[float],
-    frequencies_hz: np.ndarray,
-    timeout_s: float | None = None,
-) -> xr.DataArray:
-    """Check ``bias``, measure, and check the answer; device failures become DeviceError."""
-    b = check_bias(device, bias)
-    f = np.asarray(frequencies_hz, dtype=float)
-    try:
-        if timeout_s is None:
-            result = device.measure(b.tolist(), f)
-        else:
-            pool = concurrent.futures.ThreadPoolExecutor(max_workers=1)
-            try:
-                result = pool.submit(device.measure, b.tolist(), f).result(timeout=timeout_s)
-            finally:
-                pool.shutdown(wait=False, cancel_futures=True)
-    except concurrent.futures.TimeoutError:
-        raise DeviceError(
-            f"the device did not answer within {timeout_s} s (measuring at {b.tolist()} V)"
-        ) from None
-    except SysidError:
-        raise
-    except Exception as exc:
-        raise DeviceError(
-            f"the device failed while measuring at {b.tolist()} V: {type(exc).__name__}: {exc}"
-        ) from exc
-    if not isinstance(result, xr.DataArray) or tuple(result.dims) != (
-        "frequency",
-        "output",
-        "input",
-    ):
-        raise DeviceError(
-            "the device returned something other than a DataArray with dims "
-            "('frequency', 'output', 'input')"
-        )
-    if result.sizes["frequency"] != f.size or not np.all(np.isfinite(result.values)):
-        raise DeviceError("the device returned a wrong-sized or non-finite measurement")
-    return result
+    @property
+    def verified(self) -> bool:
+        """Both modes were seen in a narrow window."""
+        return self.status == "verified"
 
+    @property
+    def split_hz(self) -> float | None:
+        """The measured split, or None when no sweep showed both modes."""
+        f = self.frequencies_hz
+        return None if f is None else float(f[1] - f[0])
 
-def design_experiments(
-    start: np.ndarray, tuned_index: Sequence[int], step: float, limits: tuple[float, float]
-) -> np.ndarray:
-    """Eq. (18): the start bias and one electrode stepped at a time (down if up would leave)."""
-    low, high = limits
-    design = [np.array(start, dtype=float)]
-    for p in tuned_index:
-        b = np.array(start, dtype=float)
-        if b[p] + step <= high:
-            b[p] += step
-        elif b[p] - step >= low:
-            b[p] -= step
-        else:
-            raise ConfigError(f"bias_step {step} V does not fit inside the limits {limits}")
-        design.append(b)
-    return np.array(design)
+    @property
+    def frequency_hz(self) -> float | None:
+        """Mean measured modal frequency, or None."""
+        return None if self.frequencies_hz is None else float(np.mean(self.frequencies_hz))
+
+    def describe(self) -> str:
+        """One line for people."""
+        if self.status == "verified":
+            return f"measured split {self.split_hz * 1e3:.3g} mHz at {self.frequency_hz:.3f} Hz"
+        if self.status == "located":
+            return (
+                f"modes located by a whole-band sweep near {self.frequencies_hz[0]:.2f} and "
+                f"{self.frequencies_hz[1]:.2f} Hz (split about {self.split_hz:.3g} Hz, not "
+                "verified by a narrow window)"
+            )
+        return "no sweep showed both modes: " + self.windows[-1].failures()
 
 
 @dataclass
@@ -152,26 +137,45 @@ class IterationRecord:
     experiments: list[list[float]]
     tuning: dict[str, Any]
     verified_bias: list[float]
-    measured_split_hz: float
-    measured_frequency_hz: float
+    verification: str
+    measured_split_hz: float | None
+    measured_frequency_hz: float | None
+    measured_frequencies_hz: list[float] | None
+    goals: list[dict[str, Any]]
+    evidence: list[dict[str, Any]]
     gamma: float
     fit_time_s: float
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-friendly form."""
+        return dict(self.__dict__)
 
 
 @dataclass
 class RunSummary:
-    """The result of a tuning run (what ``summary.json`` and ``--json`` report)."""
+    """The result of a tuning run (what ``summary.json`` and ``--json`` report).
+
+    ``split_hz`` and ``frequency_hz`` are those of the last verification, or None when it did
+    not verify them; ``converged`` is true only when the last verification was verified and
+    every goal in ``goals`` is met; ``status`` says so in one sentence. ``notes`` lists what
+    the identification fits found suspicious (:func:`sysid_core.fit.check_fit`), e.g. modes of a
+    stepped experiment outside its window.
+    """
 
     device: str
     bias: list[float]
-    split_hz: float
-    frequency_hz: float
+    split_hz: float | None
+    frequency_hz: float | None
     iterations: int
     experiments: int
     converged: bool
+    verified: bool
+    status: str
+    goals: list[dict[str, Any]]
     electrodes: list[str]
     tuned: list[str]
     history: list[IterationRecord] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
     out: str = ""
 
     def as_dict(self) -> dict[str, Any]:
@@ -184,28 +188,39 @@ class RunSummary:
             "iterations": self.iterations,
             "experiments": self.experiments,
             "converged": self.converged,
+            "verified": self.verified,
+            "status": self.status,
+            "goals": self.goals,
             "electrodes": self.electrodes,
             "tuned": self.tuned,
             "out": self.out,
-            "history": [r.__dict__ for r in self.history],
+            "notes": self.notes,
+            "history": [r.as_dict() for r in self.history],
         }
 
 
 class TuningRun:
     """One run of the tuning loop, writing everything into ``out``.
 
+    Building the run checks everything that can be checked without measuring (and writes
+    nothing): the configuration's plugins are created, the device's protocol attributes, the
+    start bias, the sweeps and the first experiment design are checked, and ``out`` must be
+    usable (empty for a new run; holding this run for ``resume``).
+
     Parameters
     ----------
     config : PipelineConfig
         Validated configuration.
     out : path
-        Output directory. Must be empty (or absent) unless ``resume``.
+        Output directory.
     resume : bool
-        Continue a run in ``out``: measurements on disk are read, not measured again.
+        Continue the run in ``out``: measurements on disk are read, not measured again.
     progress : callable, optional
         Receives one-line progress messages.
     device : Device, optional
         Use this device object instead of creating ``config.device`` from the registry.
+    registry : Registry, optional
+        Where plugins are looked up (default: the process-wide registry).
     plots : bool
         Write the PNG report (default true).
     """
@@ -226,66 +241,64 @@ class TuningRun:
         self.say = progress or (lambda _m: None)
         self.registry = registry or get_registry()
         self.plots = plots
-        self.device = (
+        reg = self.registry
+        m = config.model
+        # Every plugin is built now, so that a bad option fails before anything is measured;
+        # the fits and the criterion use these very objects.
+        self.structure: ModelStructure = reg.create("model structure", m.structure, order=m.order)
+        self.objective: Objective = reg.create("objective", m.objective, **m.objective_options)
+        self.solver: Solver = reg.create("solver", config.solver.name, **config.solver.options)
+        crit_opts: dict[str, Any] = {"solver": self.solver}
+        if config.tuning.target_hz is not None:
+            crit_opts["target_hz"] = config.tuning.target_hz
+        if config.tuning.tolerance_hz is not None:
+            crit_opts["tolerance_hz"] = config.tuning.tolerance_hz
+        self.criterion: TuningCriterion = reg.create(
+            "tuning criterion", config.tuning.criterion, **crit_opts
+        )
+        raw = (
             device
             if device is not None
-            else self.registry.create("device", config.device.name, **config.device.options)
+            else reg.create("device", config.device.name, **config.device.options)
         )
-        if not isinstance(self.device, Device):
-            raise ConfigError(
-                f"device {config.device.name!r} does not follow the Device protocol "
-                "(electrodes, bias_limits, structure_potential, band_hz, measure)"
-            )
-        self.electrodes = [str(e) for e in self.device.electrodes]
-        tuned = config.tuning.electrodes or self.electrodes
+        self.device = GuardedDevice(raw, config.device.name, config.experiment.timeout_s)
+        self.electrodes = [str(e) for e in self.device.device.electrodes]
         start = config.tuning.start_bias
         if start is None:
             start = [0.0] * len(self.electrodes)
         self.space = BiasSpace(
             electrodes=self.electrodes,
-            tuned=list(tuned),
+            tuned=list(config.tuning.electrodes or self.electrodes),
             start_bias=np.asarray(start, dtype=float),
-            limits=tuple(float(x) for x in self.device.bias_limits),  # type: ignore[arg-type]
-            structure_potential=float(self.device.structure_potential),
+            limits=tuple(float(x) for x in self.device.device.bias_limits),  # type: ignore[arg-type]
+            structure_potential=float(self.device.device.structure_potential),
         )
-        check_bias(self.device, self.space.start_bias)
-        crit_opts: dict[str, Any] = {"solver": config.solver.name}
-        if config.tuning.target_hz is not None:
-            crit_opts["target_hz"] = config.tuning.target_hz
-        if config.tuning.tolerance_hz is not None:
-            crit_opts["tolerance_hz"] = config.tuning.tolerance_hz
-        self.criterion = self.registry.create(
-            "tuning criterion", config.tuning.criterion, **crit_opts
-        )
-        # The model, objective and solver settings are used only at the first fit: check them
-        # now, before anything is measured.
-        m = config.model
-        self.registry.create("model structure", m.structure, order=m.order)
-        self.registry.create("objective", m.objective, **m.objective_options)
-        self.registry.create("solver", config.solver.name, **config.solver.options)
+        check_bias(self.device.device, self.space.start_bias)
+        exp = config.experiment
+        self.plan = SweepPlan(
+            band_hz=tuple(exp.band_hz or self.device.device.band_hz),  # type: ignore[arg-type]
+            resolution_hz=exp.resolution_hz,
+            refine_span_hz=exp.refine_span_hz,
+            refine_resolution_hz=exp.refine_resolution_hz,
+            verify_span_hz=exp.verify_span_hz,
+            verify_resolution_hz=exp.verify_resolution_hz,
+            max_points=exp.max_points,
+        ).check(tuple(float(x) for x in self.device.device.band_hz))  # type: ignore[arg-type]
+        self._design(self.space.start_bias)  # the first design: limits and rank condition
+        self.folder = RunFolder(self.out, config.digest())
+        self.folder.check(resume)
         self.measurements = 0
+        self.notes: list[str] = []
 
-    # ------------------------------------------------------------------ bookkeeping
-    def _prepare_out(self) -> None:
-        cfg_path = self.out / "config.json"
-        if self.out.exists() and any(self.out.iterdir()):
-            if not self.resume:
-                raise ConfigError(
-                    f"{self.out} already holds a run; pass --resume to continue it or choose "
-                    "another --out"
-                )
-            if cfg_path.exists():
-                old = json.loads(cfg_path.read_text()).get("digest")
-                if old != self.config.digest():
-                    raise ConfigError(
-                        f"{self.out} holds a run with a different configuration; resume it with "
-                        "the same configuration file or choose another --out"
-                    )
-        self.out.mkdir(parents=True, exist_ok=True)
-        write_json(
-            cfg_path,
-            {"digest": self.config.digest(), "config": self.config.model_dump(mode="json")},
+    # ------------------------------------------------------------------ measuring
+    def _design(self, bias: np.ndarray) -> np.ndarray:
+        design = design_experiments(
+            bias, self.space.index, self.config.experiment.bias_step, self.space.limits
         )
+        check_rank_condition(
+            design[:, self.space.index], self.space.structure_potential, self.space.tuned
+        )
+        return design
 
     def _measure(self, bias: np.ndarray, freqs: np.ndarray, path: Path) -> xr.Dataset:
         """Read ``path`` if it holds this measurement (resume), else measure and save it first."""
@@ -295,18 +308,27 @@ class TuningRun:
                 ds["frequency"].values, freqs, rtol=0, atol=1e-9
             )
             if same_grid and np.allclose(ds["bias"].values[0], bias, rtol=0, atol=1e-12):
-                self.say(f"read {path.name} (measured earlier)")
+                self.say(f"read {path.relative_to(self.out)} (measured earlier)")
                 self.measurements += 1
                 return ds
-            raise ConfigError(
-                f"{path} holds a measurement at another bias or grid than this run needs; "
-                "the run cannot be resumed"
+            raise RunFolderError(
+                f"{path} holds a measurement at another bias or frequency grid than this run "
+                "needs now; the run cannot be resumed (start a new one in another --out)"
             )
         self.say(
             f"measuring at [{', '.join(f'{b:.4f}' for b in bias)}] V, "
             f"{freqs[0]:.3f}-{freqs[-1]:.3f} Hz, {freqs.size} points"
         )
-        da = measure_safely(self.device, bias, freqs, self.config.experiment.timeout_s)
+        try:
+            da = self.device.measure(bias, freqs)
+        except InvalidAnswerError as exc:
+            kept = self.folder.reject(
+                f"{path.parent.name}-{path.stem}", getattr(exc, "answer", None), str(exc)
+            )
+            raise InvalidAnswerError(
+                f"{exc}; the answer is kept in {kept.parent} (not as a measurement), --resume "
+                "measures it again"
+            ) from None
         ds = experiment_from_measurement(
             da,
             bias,
@@ -319,83 +341,83 @@ class TuningRun:
         return ds
 
     def _fit(self, ds: xr.Dataset) -> FittedModel:
-        m = self.config.model
-        return fit(
-            ds,
-            m.structure,
-            m.order,
-            m.objective,
-            self.config.solver.name,
-            objective_options=m.objective_options,
-            solver_options=self.config.solver.options,
-        )
-
-    def _band(self, center_hz: float | None = None, split_hz: float = 0.0) -> np.ndarray:
-        exp = self.config.experiment
-        lo, hi = exp.band_hz or self.device.band_hz
-        res = exp.resolution_hz
-        if center_hz is not None and exp.refine_span_hz > 0:
-            # wide enough for both measured modes, with a margin, even if they are far apart
-            half = max(exp.refine_span_hz / 2, 1.5 * split_hz)
-            lo, hi = max(lo, center_hz - half), min(hi, center_hz + half)
-            res = exp.refine_resolution_hz
-        n = math.floor((hi - lo) / res + 1e-9) + 1
-        return lo + res * np.arange(n)
+        return fit(ds, self.structure, objective=self.objective, solver=self.solver)
 
     # ------------------------------------------------------------------ steps
     def _identify(
-        self,
-        it: int,
-        bias: np.ndarray,
-        folder: Path,
-        center_hz: float | None,
-        split_hz: float = 0.0,
+        self, it: int, bias: np.ndarray, folder: Path, center_hz: float | None, split_hz: float
     ) -> tuple[xr.Dataset, FittedModel]:
-        design = design_experiments(
-            bias, self.space.index, self.config.experiment.bias_step, self.space.limits
-        )
-        check_rank_condition(
-            design[:, self.space.index], self.space.structure_potential, self.space.tuned
-        )
-        freqs = self._band(center_hz, split_hz)
+        design = self._design(bias)
+        freqs = self.plan.refine(center_hz, split_hz)
         parts = [self._measure(b, freqs, folder / f"exp{j}.nc") for j, b in enumerate(design)]
         ds = concat_experiments(parts).sel(electrode=self.space.tuned)
-        held = {
-            e: float(bias[i]) for i, e in enumerate(self.electrodes) if e not in self.space.tuned
-        }
-        ds.attrs["held_bias"] = json.dumps(held)
         self.say(
-            f"iteration {it}: fitting {self.config.model.structure} model to "
-            f"{len(design)} experiments"
+            f"iteration {it}: fitting {self.structure.name} model to {len(design)} experiments"
         )
-        model = self._fit(ds)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", FitWarning)
+            model = self._fit(ds)
+        for w in caught:
+            if issubclass(w.category, FitWarning):  # a note of this run, not a user warning
+                self.notes.append(f"iteration {it}: {w.message}")
+                self.say(f"iteration {it}: note: {w.message}")
+            else:
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         model.save(folder / "model.nc")
         return ds, model
 
-    def _verify(
-        self, bias: np.ndarray, center_hz: float, folder: Path
-    ) -> tuple[xr.Dataset, FittedModel]:
-        exp = self.config.experiment
-        span, res = exp.verify_span_hz, exp.verify_resolution_hz
-        band_lo, band_hi = self.config.experiment.band_hz or self.device.band_hz
-        for attempt in range(4):
-            lo, hi = max(center_hz - span / 2, band_lo), min(center_hz + span / 2, band_hi)
-            n = max(round((hi - lo) / res) + 1, 21)
-            freqs = np.linspace(lo, hi, n)
-            name = "verify.nc" if attempt == 0 else f"verify-{attempt + 1}.nc"
-            sweep = self._measure(bias, freqs, folder / name)
+    def _sweep(
+        self, bias: np.ndarray, freqs: np.ndarray, path: Path, band: bool
+    ) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
+        sweep = self._measure(bias, freqs, path)
+        with warnings.catch_warnings():
+            # A window without both modes is expected here; the evidence says so, not a warning.
+            warnings.simplefilter("ignore", FitWarning)
             vmodel = self._fit(sweep.isel(electrode=[]))
-            f_modes = vmodel.modal([]).frequencies_hz
-            margin = 0.1 * (hi - lo)
-            inside = f_modes.min() > lo + margin and f_modes.max() < hi - margin
-            if inside or (lo <= band_lo and hi >= band_hi):
-                return sweep, vmodel
-            # The modes are not both well inside the sweep: widen it around them.
-            center_hz = float(f_modes.mean()) if lo < f_modes.mean() < hi else center_hz
-            span = max(4 * span, 3 * float(np.ptp(f_modes)))
-            res = max(res, span / 400)
-            self.say(f"verification: modes near the sweep's edge; widening to {span:.2f} Hz")
-        return sweep, vmodel
+        return sweep, vmodel, assess_window(sweep, vmodel, band=band)
+
+    def _verify(
+        self, bias: np.ndarray, predicted: TuningResult, model: FittedModel, folder: Path
+    ) -> Verification:
+        """Step 4 with evidence (see the module docstring of :mod:`sysid_core.verification`)."""
+        plan = self.plan
+        rep = model.modal(bias[self.space.index])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bw = np.asarray(rep.frequencies_hz) / np.asarray(rep.q)
+        bw_min = float(np.min(bw)) if np.all(np.isfinite(bw) & (bw > 0)) else np.inf
+        bw_max = float(np.max(bw)) if np.isfinite(bw_min) else 0.0
+
+        def window(center: float, split: float) -> np.ndarray:
+            span = max(plan.verify_span_hz, 2 * split + 6 * bw_max)
+            return plan.window(center, span, min(plan.verify_resolution_hz, bw_min))
+
+        windows: list[WindowAssessment] = []
+        freqs = window(predicted.frequency_hz, predicted.split_hz)
+        sweep, vmodel, ev = self._sweep(bias, freqs, folder / "verify.nc", band=False)
+        windows.append(ev)
+        if ev.ok:
+            return Verification("verified", ev.frequencies_hz, windows, sweep, vmodel)
+        self.say(
+            "verification: the window around the predicted modes does not show both modes "
+            f"({ev.failures()}); sweeping the whole band to locate them"
+        )
+        sweep, vmodel, ev = self._sweep(bias, plan.band(), folder / "verify-band.nc", band=True)
+        windows.append(ev)
+        if not ev.ok:
+            return Verification("failed", None, windows, sweep, vmodel)
+        located = ev.frequencies_hz
+        if ev.split_hz >= plan.verify_span_hz:
+            return Verification("located", located, windows, sweep, vmodel)
+        self.say(
+            f"verification: modes located near {located[0]:.3f} / {located[1]:.3f} Hz; "
+            "measuring a window around them"
+        )
+        freqs = window(ev.center_hz, ev.split_hz)
+        sweep2, vmodel2, ev2 = self._sweep(bias, freqs, folder / "verify-2.nc", band=False)
+        windows.append(ev2)
+        if ev2.ok:
+            return Verification("verified", ev2.frequencies_hz, windows, sweep2, vmodel2)
+        return Verification("located", located, windows, sweep, vmodel)
 
     def _best_effort(
         self, exc: UnreachableTuningError, model: FittedModel, space: BiasSpace, it: int
@@ -417,7 +439,7 @@ class TuningRun:
             or float(np.max(np.abs(np.asarray(best, dtype=float) - space.start_bias))) <= step
         ):
             raise exc
-        bias = check_bias(self.device, best)
+        bias = check_bias(self.device.device, best)
         w = (space.structure_potential - bias[space.index]) ** 2
         f = frequencies_from_w(model, w)
         self.say(
@@ -436,8 +458,20 @@ class TuningRun:
 
     # ------------------------------------------------------------------ the loop
     def run(self) -> RunSummary:
-        """Run (or resume) the loop; returns the summary (also written to ``summary.json``)."""
-        self._prepare_out()
+        """Run (or resume) the loop; returns the summary (also written to ``summary.json``).
+
+        Raises
+        ------
+        RunLockedError
+            If another process works in the same folder.
+        """
+        self.folder.acquire(self.resume, self.config.model_dump(mode="json"))
+        try:
+            return self._loop()
+        finally:
+            self.folder.release()
+
+    def _loop(self) -> RunSummary:
         cfg = self.config.tuning
         bias = np.array(self.space.start_bias, dtype=float)
         history: list[IterationRecord] = []
@@ -445,15 +479,20 @@ class TuningRun:
         summary = RunSummary(
             device=self.config.device.name,
             bias=bias.tolist(),
-            split_hz=float("nan"),
-            frequency_hz=float("nan"),
+            split_hz=None,
+            frequency_hz=None,
             iterations=0,
             experiments=0,
             converged=False,
+            verified=False,
+            status="not started",
+            goals=[],
             electrodes=self.electrodes,
             tuned=list(self.space.tuned),
             out=str(self.out),
         )
+        center: float | None = None
+        split = 0.0
         for it in range(1, cfg.max_iterations + 1):
             folder = self.out / f"iter{it:02d}"
             t0 = time.perf_counter()
@@ -464,41 +503,29 @@ class TuningRun:
                 self.space.limits,
                 self.space.structure_potential,
             )
-            center = history[-1].measured_frequency_hz if history else None
-            split = history[-1].measured_split_hz if history else 0.0
             ds, model = self._identify(it, bias, folder, center, split)
             fit_time = time.perf_counter() - t0
             try:
                 result: TuningResult = self.criterion.solve(model, space)
             except UnreachableTuningError as exc:
                 result = self._best_effort(exc, model, space, it)
-            new_bias = check_bias(self.device, result.bias)
+            new_bias = check_bias(self.device.device, result.bias)
             write_json(folder / "tuning.json", result.as_dict())
             self.say(
                 f"iteration {it}: {self.criterion.name} bias "
                 f"[{', '.join(f'{b:.4f}' for b in new_bias)}] V, predicted modes "
                 f"{result.frequencies_hz[0]:.3f} / {result.frequencies_hz[1]:.3f} Hz"
             )
-            sweep, vmodel = self._verify(new_bias, result.frequency_hz, folder)
-            rep = vmodel.modal([])
-            vmodel.save(folder / "verify-model.nc")
+            ver = self._verify(new_bias, result, model, folder)
+            ver.model.save(folder / "verify-model.nc")
+            goals: list[Goal] = (
+                self.criterion.goals(ver.frequencies_hz, cfg.acceptance_hz)
+                if ver.verified and ver.frequencies_hz is not None
+                else []
+            )
+            converged = ver.verified and all(g.met for g in goals)
             if self.plots:
-                from sysid_core.report import plot_fit, plot_verification
-
-                plot_fit(
-                    ds,
-                    model,
-                    folder / "fit.png",
-                    title=f"iteration {it}: {model.structure.name} model, "
-                    f"gamma = {model.gamma:.3g}",
-                )
-                plot_verification(
-                    sweep.isel(electrode=[]),
-                    model,
-                    new_bias[self.space.index],
-                    vmodel,
-                    folder / "verify.png",
-                )
+                self._plot_iteration(it, ds, model, ver, new_bias, folder)
             bias = new_bias
             path.append(bias.tolist())
             history.append(
@@ -507,32 +534,85 @@ class TuningRun:
                     experiments=ds["bias"].values.tolist(),
                     tuning=result.as_dict(),
                     verified_bias=bias.tolist(),
-                    measured_split_hz=rep.split_hz,
-                    measured_frequency_hz=float(rep.frequencies_hz.mean()),
+                    verification=ver.status,
+                    measured_split_hz=ver.split_hz,
+                    measured_frequency_hz=ver.frequency_hz,
+                    measured_frequencies_hz=None
+                    if ver.frequencies_hz is None
+                    else [float(x) for x in ver.frequencies_hz],
+                    goals=[g.as_dict() for g in goals],
+                    evidence=[w.as_dict() for w in ver.windows],
                     gamma=model.gamma,
                     fit_time_s=float(model.meta["fit_time_s"]),
                 )
             )
-            summary.bias, summary.split_hz = bias.tolist(), rep.split_hz
-            summary.frequency_hz = float(rep.frequencies_hz.mean())
+            summary.bias = bias.tolist()
+            summary.split_hz, summary.frequency_hz = ver.split_hz, ver.frequency_hz
             summary.iterations, summary.experiments = it, self.measurements
-            summary.converged = rep.split_hz < cfg.acceptance_hz
+            summary.converged, summary.verified = converged, ver.verified
+            summary.goals = [g.as_dict() for g in goals]
+            summary.status = self._status(it, ver, goals, converged)
             summary.history = history
+            summary.notes = list(self.notes)
             write_json(self.out / "summary.json", summary.as_dict())
-            self.say(
-                f"iteration {it}: measured split {rep.split_hz * 1e3:.2f} mHz at "
-                f"{summary.frequency_hz:.3f} Hz ({fit_time:.2f} s to identify)"
-            )
+            self.say(f"iteration {it}: {ver.describe()} ({fit_time:.2f} s to identify)")
             if self.plots:
                 from sysid_core.report import plot_bias_path
 
                 plot_bias_path(
-                    [p for p in path],
+                    path,
                     [h.measured_split_hz for h in history],
                     self.electrodes,
                     self.out / "bias_path.png",
                     self.space.limits,
+                    acceptance_hz=cfg.acceptance_hz,
                 )
-            if summary.converged:
+            if converged:
                 break
+            # The next identification starts from what was measured: around the modes if
+            # they were found, over the whole band if not.
+            if ver.frequencies_hz is not None:
+                center, split = ver.frequency_hz, float(ver.split_hz or 0.0)
+            else:
+                center, split = None, 0.0
         return summary
+
+    def _status(self, it: int, ver: Verification, goals: list[Goal], converged: bool) -> str:
+        if converged:
+            return (
+                f"converged after {it} iteration(s): {ver.describe()}; goals met: "
+                + ", ".join(str(g) for g in goals)
+            )
+        if not ver.verified:
+            return f"NOT converged after {it} iteration(s): not verified, {ver.describe()}"
+        return (
+            f"NOT converged after {it} iteration(s): {ver.describe()}; goals not met: "
+            + ", ".join(str(g) for g in goals if not g.met)
+        )
+
+    def _plot_iteration(
+        self,
+        it: int,
+        ds: xr.Dataset,
+        model: FittedModel,
+        ver: Verification,
+        bias: np.ndarray,
+        folder: Path,
+    ) -> None:
+        from sysid_core.report import plot_fit, plot_verification
+
+        plot_fit(
+            ds,
+            model,
+            folder / "fit.png",
+            title=f"iteration {it}: {model.structure.name} model, gamma = {model.gamma:.3g}",
+        )
+        plot_verification(
+            ver.sweep.isel(electrode=[]),
+            model,
+            bias[self.space.index],
+            ver.model,
+            folder / "verify.png",
+            title=f"iteration {it} verification ({ver.status}): {ver.describe()}",
+        )
+

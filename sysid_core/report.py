@@ -139,41 +139,47 @@ def plot_verification(
 
 def plot_bias_path(
     biases: Sequence[Sequence[float]],
-    splits_hz: Sequence[float],
+    splits_hz: Sequence[float | None],
     electrodes: Sequence[str],
     path: str | os.PathLike[str],
     limits: tuple[float, float] | None = None,
+    acceptance_hz: float | None = None,
 ) -> Path:
-    """The bias after each iteration (first two electrodes' plane) and the measured split."""
+    """Every electrode's bias after each iteration, and the split each verification measured.
+
+    ``biases[0]`` is the start bias, ``biases[k]`` the bias of iteration ``k``. A split of
+    ``None`` (the verification did not show both modes) is drawn as a cross at the bottom.
+    """
     fig = _figure(1, 2, (11, 4.5))
     ax_b, ax_s = fig.axes
     b = np.asarray(biases, dtype=float)
-    if b.shape[1] >= 2:
-        ax_b.plot(b[:, 0], b[:, 1], "-o", ms=4)
-        for k, (x, y) in enumerate(b[:, :2]):
-            ax_b.annotate(
-                "start" if k == 0 else str(k),
-                (x, y),
-                fontsize=8,
-                textcoords="offset points",
-                xytext=(4, 4),
-            )
-        ax_b.set_xlabel(f"{electrodes[0]} bias [V]")
-        ax_b.set_ylabel(f"{electrodes[1]} bias [V]")
-    else:
-        ax_b.plot(np.arange(len(b)), b[:, 0], "-o")
-        ax_b.set_xlabel("iteration")
-        ax_b.set_ylabel(f"{electrodes[0]} bias [V]")
-    if limits is not None and b.shape[1] >= 2:
-        ax_b.axhline(limits[0], color="0.8")
-        ax_b.axhline(limits[1], color="0.8")
-        ax_b.axvline(limits[0], color="0.8")
-        ax_b.axvline(limits[1], color="0.8")
-    ax_b.set_title("bias path")
+    steps = np.arange(b.shape[0])
+    for p, name in enumerate(electrodes):
+        ax_b.plot(steps, b[:, p], "-o", ms=4, label=name)
+    if limits is not None:
+        ax_b.axhspan(limits[0], limits[1], color="0.93", zorder=0, label="allowed bias")
+    ax_b.set_xticks(steps, ["start", *[str(k) for k in steps[1:]]])
+    ax_b.set_xlabel("iteration")
+    ax_b.set_ylabel("bias [V]")
+    ax_b.set_title("bias of each electrode")
+    ax_b.legend(fontsize=8, ncols=2)
     it = np.arange(1, len(splits_hz) + 1)
-    ax_s.semilogy(it, np.maximum(np.asarray(splits_hz) * 1e3, 1e-3), "-o")
+    known = np.array([s is not None and np.isfinite(s) for s in splits_hz], dtype=bool)
+    mhz = np.array([s * 1e3 if k else np.nan for s, k in zip(splits_hz, known, strict=True)])
+    floor = 1e-3
+    if known.any():
+        ax_s.semilogy(it[known], np.maximum(mhz[known], floor), "-o", label="measured split")
+    if (~known).any():
+        bottom = np.nanmin(np.r_[mhz[known], acceptance_hz * 1e3 if acceptance_hz else 1.0])
+        ax_s.semilogy(
+            it[~known], np.full((~known).sum(), max(bottom / 3, floor)), "x", ms=9,
+            color="tab:red", label="not verified (no split measured)",
+        )
+    if acceptance_hz is not None:
+        ax_s.axhline(acceptance_hz * 1e3, color="tab:green", ls="--", label="acceptance")
     ax_s.set_xlabel("iteration")
     ax_s.set_ylabel("measured split [mHz]")
     ax_s.set_xticks(it)
     ax_s.set_title("split after each iteration")
+    ax_s.legend(fontsize=8)
     return _save(fig, path)

@@ -1,79 +1,29 @@
 """The third-party example in docs/examples/sysid-example-device installs and registers.
 
-The example is pip-installed (a regular, non-editable install without dependencies) into the
-running environment if it is not installed yet: it lands in site-packages, which is already on
-``sys.path``, so this process and every later test can import it (an editable install would
-work through a .pth file that only new processes read, and this process would then warn that
-the plugin fails to load). The checks run in subprocesses, as a user's program would.
+The example is pip-installed like a third party's package (see ``tests/installing.py``); the
+checks run in subprocesses, as a user's program would.
 """
 
 from __future__ import annotations
 
-import importlib.metadata
-import importlib.util
-import os
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from installing import environment, install
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "docs" / "examples" / "sysid-example-device"
 DISTRIBUTION = "sysid-example-device"
-OFFLINE_HINTS = (
-    "No matching distribution",
-    "Could not find a version",
-    "Failed to establish a new connection",
-    "Network is unreachable",
-    "Temporary failure in name resolution",
-)
-
-
-def _installed() -> bool:
-    try:
-        importlib.metadata.distribution(DISTRIBUTION)
-    except importlib.metadata.PackageNotFoundError:
-        return False
-    return True
-
-
-def _can_build_without_isolation() -> bool:
-    """setuptools builds wheels in place from 70.1 on; before that it needs the wheel package."""
-    if importlib.util.find_spec("setuptools") is None:
-        return False
-    version = tuple(int(p) for p in importlib.metadata.version("setuptools").split(".")[:2])
-    if version < (64, 0):
-        return False
-    return version >= (70, 1) or importlib.util.find_spec("wheel") is not None
 
 
 def _environment() -> dict[str, str]:
-    env = dict(os.environ)
-    env.pop("SYSID_DISABLE_PLUGIN_AUTOLOAD", None)
-    return env
+    return environment()
 
 
 @pytest.fixture(scope="module")
 def example_installed() -> None:
-    if _installed():
-        return
-    if importlib.util.find_spec("pip") is None:
-        pytest.skip(f"pip is not available to install {EXAMPLE}")
-    command = [sys.executable, "-m", "pip", "install", "--quiet", "--disable-pip-version-check"]
-    command += ["--no-deps"]
-    if _can_build_without_isolation():
-        command += ["--no-build-isolation"]
-    command += [str(EXAMPLE)]
-    done = subprocess.run(command, capture_output=True, text=True, timeout=600, check=False)
-    if done.returncode != 0:
-        tail = "\n".join((done.stdout + done.stderr).strip().splitlines()[-15:])
-        if any(hint in tail for hint in OFFLINE_HINTS):
-            pytest.skip(f"cannot install the example offline (no package index reachable):\n{tail}")
-        pytest.fail(f"pip could not install {EXAMPLE}:\n{tail}")
-    importlib.invalidate_caches()
-    from sysid_core.registry import reset_registry
-
-    reset_registry()  # the next lookup sees the new entry point
+    install(EXAMPLE, DISTRIBUTION)
 
 
 def _run(code: str) -> str:

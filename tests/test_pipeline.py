@@ -34,12 +34,15 @@ from sysid_core.errors import (
     ConfigError,
     DeviceError,
     PluginNotFoundError,
+    RunFolderError,
     SysidError,
     UnreachableTuningError,
 )
 from sysid_core.hookspec import hookimpl
-from sysid_core.pipeline import RunSummary, TuningRun, check_bias, design_experiments
+from sysid_core.measuring import check_bias
+from sysid_core.pipeline import RunSummary, TuningRun
 from sysid_core.registry import Registry
+from sysid_core.sweeps import design_experiments
 
 REDUCED = {"resolution_hz": 1.0, "verify_resolution_hz": 0.02}
 TWO_ELECTRODES = {
@@ -309,8 +312,8 @@ def test_device_failure_then_resume(tmp_path: Path, registry: Registry, referenc
     first = json.loads((out / "summary.json").read_text())
     assert first["iterations"] == 1 and len(first["history"]) == 1
 
-    with pytest.raises(ConfigError, match="--resume"):
-        TuningRun(cfg, out, device=RecordingCloverleaf(seed=1), plots=False).run()
+    with pytest.raises(RunFolderError, match="already holds a run; pass --resume"):
+        TuningRun(cfg, out, device=RecordingCloverleaf(seed=1), plots=False)
 
     device = RecordingCloverleaf(seed=1)
     messages: list[str] = []
@@ -351,8 +354,8 @@ def test_resume_refuses_another_configuration(tmp_path: Path) -> None:
     with pytest.raises(DeviceError):
         TuningRun(config(), tmp_path, device=dev, plots=False).run()
     other = config(experiment={"bias_step": 0.5})
-    with pytest.raises(ConfigError, match="different configuration"):
-        TuningRun(other, tmp_path, resume=True, device=dev, plots=False).run()
+    with pytest.raises(RunFolderError, match="different configuration"):
+        TuningRun(other, tmp_path, resume=True, device=dev, plots=False)
 
 
 def test_timeout_is_a_device_error(tmp_path: Path) -> None:
@@ -539,9 +542,12 @@ def test_config_value_errors_before_measuring(tmp_path: Path) -> None:
 def test_out_dir_holding_a_run_needs_resume(tmp_path: Path) -> None:
     (tmp_path / "summary.json").write_text("{}")
     dev = RecordingCloverleaf()
-    with pytest.raises(ConfigError, match="already holds a run"):
-        TuningRun(config(), tmp_path, device=dev, plots=False).run()
+    with pytest.raises(RunFolderError, match="holds no sysid run"):
+        TuningRun(config(), tmp_path, device=dev, plots=False)
+    with pytest.raises(RunFolderError, match="holds files but no sysid run"):
+        TuningRun(config(), tmp_path, device=dev, resume=True, plots=False)
     assert dev.calls == []
+    assert (tmp_path / "summary.json").read_text() == "{}"  # the user's file is untouched
 
 
 # ------------------------------------------------------------------------------ CLI
@@ -585,9 +591,10 @@ def test_cli_human_output(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
             "experiment": REDUCED,
         },
     )
-    assert main(["tune", str(cfg), "--out", str(tmp_path / "o"), "--no-plots"]) == 0
+    assert main(["tune", str(cfg), "--out", str(tmp_path / "o"), "--no-plots"]) == 1
     captured = capsys.readouterr()
-    assert "NOT converged after 1 iteration(s), 4 measurements" in captured.out
+    assert "NOT converged after 1 iteration(s)" in captured.out
+    assert captured.err.strip().splitlines()[-1].startswith("sysid: error: NOT converged")
     assert "final bias: B1 = " in captured.out
     assert "iteration 1: measured split" in captured.err  # progress on stderr
     assert not list((tmp_path / "o").rglob("*.png"))

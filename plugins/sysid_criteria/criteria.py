@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from sysid_core.errors import ConfigError, SolverError, UnreachableTuningError
-from sysid_core.interfaces import Solver, TuningCriterion, check_options
+from sysid_core.interfaces import Goal, Solver, TuningCriterion, check_options, typed_option
 from sysid_core.tuning import BiasSpace, TuningResult, frequencies_from_w, solve_spread
 
 if TYPE_CHECKING:
@@ -33,9 +33,9 @@ class _Base(TuningCriterion):
 
     def __init__(self, tolerance_hz: float = 1e-3, solver: str | Solver = "clarabel", **opts: Any):
         check_options("tuning criterion", self.name, opts, self.OPTIONS)
-        if tolerance_hz <= 0:
-            raise ConfigError(f"tolerance_hz must be positive, got {tolerance_hz}")
-        self.tolerance_hz = float(tolerance_hz)
+        self.tolerance_hz = typed_option(
+            "tuning criterion", self.name, "tolerance_hz", tolerance_hz, float, positive=True
+        )
         self.solver = _solver(solver)
 
     def _result(
@@ -119,9 +119,17 @@ class Target(_Base):
         super().__init__(tolerance_hz, solver, **opts)
         if target_hz is None:
             raise ConfigError("criterion 'target' needs target_hz (in [tuning])")
-        if not np.isfinite(target_hz) or target_hz <= 0:
-            raise ConfigError(f"target_hz must be a positive frequency, got {target_hz}")
-        self.target_hz = float(target_hz)
+        self.target_hz = typed_option(
+            "tuning criterion", self.name, "target_hz", target_hz, float, positive=True
+        )
+
+    def goals(self, measured_hz: np.ndarray, acceptance_hz: float) -> list[Goal]:
+        """The split, and the largest distance of a measured mode from ``target_hz``."""
+        error = float(np.max(np.abs(np.asarray(measured_hz, dtype=float) - self.target_hz)))
+        return [
+            *super().goals(measured_hz, acceptance_hz),
+            Goal("frequency error", error, self.tolerance_hz),
+        ]
 
     def solve(self, model: FittedModel, space: BiasSpace) -> TuningResult:
         box = space.box()
@@ -176,7 +184,9 @@ class MinMaxBias(_Base):
         **opts: Any,
     ) -> None:
         super().__init__(tolerance_hz, solver, **opts)
-        self.bias_tol = float(bias_tol)
+        self.bias_tol = typed_option(
+            "tuning criterion", self.name, "bias_tol", bias_tol, float, positive=True
+        )
 
     def _spread(self, model: FittedModel, space: BiasSpace, t_max: float):
         w, _ = solve_spread(model, space.box(t_max), self.solver)

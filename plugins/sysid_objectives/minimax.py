@@ -7,7 +7,13 @@ from typing import Any
 import numpy as np
 
 from sysid_core.errors import FitError, SolverError
-from sysid_core.interfaces import Objective, ProgressCallback, Solver, check_options
+from sysid_core.interfaces import (
+    Objective,
+    ProgressCallback,
+    Solver,
+    check_options,
+    typed_option,
+)
 from sysid_core.problem import FitProblem, ObjectiveResult
 from sysid_core.programs import least_squares_program, minimax_program, tie_break_program
 
@@ -78,12 +84,15 @@ class Minimax(Objective):
         **options: Any,
     ) -> None:
         check_options("objective", self.name, options, self.OPTIONS)
-        self.tie_tol = float(tie_tol)
-        self.working_set = bool(working_set)
-        self.cert_tol = float(cert_tol)
-        self.batch = batch
-        self.max_rounds = int(max_rounds)
-        self.keep = float(keep)
+        opt = lambda key, value, kind, **b: typed_option(  # noqa: E731
+            "objective", self.name, key, value, kind, **b
+        )
+        self.tie_tol = opt("tie_tol", tie_tol, float, minimum=0.0)
+        self.working_set = opt("working_set", working_set, bool)
+        self.cert_tol = opt("cert_tol", cert_tol, float, minimum=0.0)
+        self.batch = None if batch is None else opt("batch", batch, int, minimum=1)
+        self.max_rounds = opt("max_rounds", max_rounds, int, minimum=1)
+        self.keep = opt("keep", keep, float, minimum=0.0)
 
     def fit(
         self, problem: FitProblem, solver: Solver, progress: ProgressCallback | None = None

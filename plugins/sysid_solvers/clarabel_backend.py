@@ -52,12 +52,18 @@ class ClarabelSolver(Solver):
 
         settings = clarabel.DefaultSettings()
         known = [a for a in dir(settings) if not a.startswith("_") and a != "default"]
-        for key in options:
+        for key, value in options.items():
             if key not in known:
                 raise ConfigError(
                     f"unknown option {key!r} for solver 'clarabel'; see clarabel.DefaultSettings"
                     f" (e.g. tol_gap_rel, tol_feas, max_iter, time_limit, verbose)"
                 )
+            try:  # Clarabel checks each setting's type as it is set: do it now, not at the fit
+                setattr(settings, key, value)
+            except (TypeError, ValueError, OverflowError) as exc:
+                raise ConfigError(
+                    f"option {key!r} of solver 'clarabel' = {value!r} is not valid: {exc}"
+                ) from None
         self.options = {"verbose": False, "chordal_decomposition_enable": False, **options}
 
     def solve(self, program: ConicProgram) -> ConicSolution:

@@ -10,26 +10,27 @@ import scipy.sparse as sp
 
 from sysid_core.conic import ConicProgram, ConicSolution
 from sysid_core.errors import ConfigError, SolverError
-from sysid_core.interfaces import Solver
+from sysid_core.interfaces import Solver, typed_option
 
 __all__ = ["ScsSolver"]
 
-_KNOWN = {
-    "eps_abs",
-    "eps_rel",
-    "eps_infeas",
-    "max_iters",
-    "time_limit_secs",
-    "verbose",
-    "normalize",
-    "scale",
-    "adaptive_scale",
-    "rho_x",
-    "alpha",
-    "acceleration_lookback",
-    "acceleration_interval",
-    "use_indirect",
-    "gpu",
+#: SCS settings accepted here, with their type.
+_KNOWN: dict[str, type] = {
+    "eps_abs": float,
+    "eps_rel": float,
+    "eps_infeas": float,
+    "max_iters": int,
+    "time_limit_secs": float,
+    "verbose": bool,
+    "normalize": bool,
+    "scale": float,
+    "adaptive_scale": bool,
+    "rho_x": float,
+    "alpha": float,
+    "acceleration_lookback": int,
+    "acceleration_interval": int,
+    "use_indirect": bool,
+    "gpu": bool,
 }
 
 
@@ -52,11 +53,12 @@ class ScsSolver(Solver):
     STATUS_MAP: ClassVar[dict[str, str]] = {"solved": "solved"}
 
     def __init__(self, **options: Any) -> None:
-        for key in options:
+        for key, value in options.items():
             if key not in _KNOWN:
                 raise ConfigError(
                     f"unknown option {key!r} for solver 'scs'; known: {', '.join(sorted(_KNOWN))}"
                 )
+            options[key] = typed_option("solver", "scs", key, value, _KNOWN[key])
         self.options = {
             "eps_abs": 1e-7,
             "eps_rel": 1e-7,
