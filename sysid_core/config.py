@@ -1,6 +1,6 @@
 """Pipeline configuration files (TOML), validated with pydantic.
 
-Tables (DESIGN.md §3)::
+Tables (the public contract, docs/contracts.md)::
 
     [device]        name = "cloverleaf", plus the device factory's keyword options
     [model]         structure = "act" | "sen", order = 1, objective = "minimax" | "least-squares"

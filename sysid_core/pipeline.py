@@ -9,8 +9,9 @@
    best reachable bias is more than ``bias_step`` away (the model extrapolated): then the run
    continues from that bias and a model identified around it decides.
 4. Verify at the new bias (:mod:`sysid_core.verification`): a window around the predicted modes;
-   if it does not show both modes, the whole band, to locate them, then a window around them.
-   A split counts as measured only when the evidence says both modes are in the window.
+   if it does not show both modes (or the predicted split is wider than the window), the whole
+   band, to locate them, then a window around them if they are close. A split counts as
+   measured only when the evidence says both modes are in a window that resolves them.
 
 The run converges when a verification is *verified* and every goal of the criterion is met (the
 split under ``acceptance_hz``; for ``target``, also the frequency error). Otherwise it goes on
@@ -392,15 +393,21 @@ class TuningRun:
             return plan.window(center, span, min(plan.verify_resolution_hz, bw_min))
 
         windows: list[WindowAssessment] = []
-        freqs = window(predicted.frequency_hz, predicted.split_hz)
-        sweep, vmodel, ev = self._sweep(bias, freqs, folder / "verify.nc", band=False)
-        windows.append(ev)
-        if ev.ok:
-            return Verification("verified", ev.frequencies_hz, windows, sweep, vmodel)
-        self.say(
-            "verification: the window around the predicted modes does not show both modes "
-            f"({ev.failures()}); sweeping the whole band to locate them"
-        )
+        if predicted.split_hz < plan.verify_span_hz:
+            freqs = window(predicted.frequency_hz, predicted.split_hz)
+            sweep, vmodel, ev = self._sweep(bias, freqs, folder / "verify.nc", band=False)
+            windows.append(ev)
+            if ev.ok:
+                return Verification("verified", ev.frequencies_hz, windows, sweep, vmodel)
+            self.say(
+                "verification: the window around the predicted modes does not show both modes "
+                f"({ev.failures()}); sweeping the whole band to locate them"
+            )
+        else:  # far from a tuning even by the model: only locate the modes
+            self.say(
+                f"verification: predicted split {predicted.split_hz:.3g} Hz; sweeping the whole "
+                "band to locate the modes"
+            )
         sweep, vmodel, ev = self._sweep(bias, plan.band(), folder / "verify-band.nc", band=True)
         windows.append(ev)
         if not ev.ok:

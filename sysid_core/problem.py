@@ -1,6 +1,7 @@
 """The fit problem: scaled data, the linear equation-error operator, and conic-program pieces.
 
-Scaling (DESIGN.md §1). With the band centre :math:`\\omega_0`, :math:`\\Omega=\\omega/\\omega_0`,
+Scaling (see docs/fitting.md): with the band centre :math:`\\omega_0`,
+:math:`\\Omega=\\omega/\\omega_0`,
 :math:`\\delta=\\Omega^2-1` and :math:`\\varepsilon=\\max|\\delta|`, the unknowns are written
 
 .. math::

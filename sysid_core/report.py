@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import io
 import os
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -129,11 +130,11 @@ def plot_verification(
         ax.set_xlabel("frequency [Hz]")
     axes[0].legend(fontsize=7)
     rep = fitted.modal([])
-    fig.suptitle(
-        title
-        or f"verification: modes {rep.frequencies_hz[0]:.4f} / {rep.frequencies_hz[1]:.4f} Hz, "
+    text = title or (
+        f"verification: modes {rep.frequencies_hz[0]:.4f} / {rep.frequencies_hz[1]:.4f} Hz, "
         f"split {rep.split_hz * 1e3:.1f} mHz"
     )
+    fig.suptitle(textwrap.fill(text, 110))
     return _save(fig, path)
 
 

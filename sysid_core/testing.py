@@ -24,6 +24,8 @@ class attributes tune the checks to a device (tolerances, sweep size) and are do
 
 What is checked
 ---------------
+* what ``sysid tune`` itself checks: the device's attributes before the first measurement, and
+  every answer (``check_device`` and ``check_answer`` of :mod:`sysid_core.measuring`);
 * the protocol attributes exist with the right types: ``electrodes`` (non-empty, unique
   strings), ``bias_limits`` (two finite numbers, ordered), ``structure_potential`` (finite),
   ``band_hz`` (two finite positive numbers, ordered), ``measure`` callable;
@@ -60,6 +62,7 @@ import xarray as xr
 
 from sysid_core.errors import BiasLimitError, ConfigError
 from sysid_core.interfaces import Device
+from sysid_core.measuring import check_answer, check_device
 
 __all__ = ["DeviceContract"]
 
@@ -122,6 +125,17 @@ class DeviceContract:
         return np.abs(np.asarray(response)).max(axis=(1, 2))
 
     # ---------------------------------------------------------- attributes
+    def test_core_accepts_the_device(self, device: Device) -> None:
+        # What sysid tune checks before its first measurement (raises DeviceError: why).
+        check_device(device, type(device).__name__)
+
+    def test_core_accepts_the_answers(self, device: Device) -> None:
+        # What sysid tune checks on every answer, including the same labels every time.
+        f = self.frequencies(device, 11)
+        first = check_answer(device.measure(self.reference_bias(device), f), f)
+        labels = ([str(v) for v in first["output"].values], [str(v) for v in first["input"].values])
+        check_answer(device.measure(self.reference_bias(device), f), f, labels)
+
     def test_follows_device_protocol(self, device: Device) -> None:
         assert isinstance(device, Device), (
             "the device lacks one of electrodes, bias_limits, structure_potential, band_hz, "

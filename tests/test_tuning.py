@@ -2,7 +2,7 @@
 
 The exact model of a set of tuned electrodes is the device's truth with the electrodes that are
 held (at 0 V) folded into ``K0``. On it the criteria must reproduce the calibration figures of
-``shared/reference/cloverleaf-calibration.md``.
+``docs/cloverleaf.md``.
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ modes and DAC quantisation.
 
 Calibration source
 ------------------
-``shared/reference/cloverleaf-calibration.md``: a least-squares fit of a 2-DOF model (M = I,
+``docs/cloverleaf.md``: a least-squares fit of a 2-DOF model (M = I,
 three nearly rank-one softening electrodes, ``v_p = v_gyro − δv_p``) to every number Section III
 of the paper publishes. In the table, "calib." marks its fitted figures, "paper" values the paper
 states directly, and "design" the design choices of the calibration note (values the paper does

@@ -1,4 +1,4 @@
-"""The cloverleaf gyro's parameter set (``shared/reference/cloverleaf-calibration.md``).
+"""The cloverleaf gyro's parameter set (calibration in ``docs/cloverleaf.md``).
 
 Every default below is either a figure of the calibration (fitted to the numbers Section III of
 Kim & M'Closkey 2006 publishes) or a design choice documented as such; see the package docstring
