@@ -22,6 +22,7 @@ from sysid_core.data import measured_mask
 from sysid_core.io import atomic_write
 
 if TYPE_CHECKING:
+    from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
     from sysid_core.model import FittedModel
@@ -44,6 +45,12 @@ def _save(fig: Figure, path: str | os.PathLike[str]) -> Path:
     fig.savefig(buf, format="png", dpi=110)
     data = buf.getvalue()
     return atomic_write(path, lambda tmp: tmp.write_bytes(data))
+
+
+def _plain_frequency_axes(axes: Sequence[Axes]) -> None:
+    """Frequencies written out (4429.6, 4429.8, ...), not as an offset (+4.43e3)."""
+    for ax in axes:
+        ax.ticklabel_format(axis="x", useOffset=False, style="plain")
 
 
 def _channels(ds: xr.Dataset) -> list[tuple[int, int, str]]:
@@ -95,6 +102,7 @@ def plot_fit(
             ax_p.set_ylabel("phase [deg]")
     for ax in axes[-2:]:
         ax.set_xlabel("frequency [Hz]")
+    _plain_frequency_axes(axes)
     axes[0].legend(fontsize=7, title="bias", title_fontsize=7)
     fig.suptitle(title or "identified model (lines) and data (markers)")
     return _save(fig, path)
@@ -128,6 +136,7 @@ def plot_verification(
         ax_p.set_ylabel("phase [deg]")
     for ax in axes[-2:]:
         ax.set_xlabel("frequency [Hz]")
+    _plain_frequency_axes(axes)
     axes[0].legend(fontsize=7)
     rep = fitted.modal([])
     text = title or (
