@@ -132,6 +132,7 @@ def run_method(method: str, ds: Any, warmup: bool = False) -> dict[str, Any]:
 
     With ``warmup`` SCS is capped at a few iterations (the warm-up only loads code).
     """
+    from reference import solve_reference
     from sysid_models.structures import ActStructure
     from sysid_objectives.least_squares import LeastSquares
     from sysid_objectives.minimax import Minimax
@@ -141,7 +142,6 @@ def run_method(method: str, ds: Any, warmup: bool = False) -> dict[str, Any]:
 
     from sysid_core.fit import fit
     from sysid_core.problem import FitProblem
-    from sysid_core.reference import solve_reference
 
     t0 = time.perf_counter()
     if method == "cvxpy":

@@ -5,20 +5,14 @@ actuated vibratory gyros", IEEE TCST 14(1), 2006. Components (model structures, 
 solvers, devices, tuning criteria) are plugins; see :mod:`sysid_core.hookspec`.
 """
 
-from sysid_core.data import (
-    check_rank_condition,
-    load_dataset,
-    make_dataset,
-    save_dataset,
-    to_frd,
-    validate,
-)
+from sysid_core.data import load_dataset, make_dataset, save_dataset, to_frd
 from sysid_core.errors import SysidError
-from sysid_core.fit import fit
+from sysid_core.fit import fit, load_model
 from sysid_core.hookspec import hookimpl, hookspec
 from sysid_core.interfaces import Device, ModelStructure, Objective, Solver, TuningCriterion
-from sysid_core.model import FittedModel, load_model
-from sysid_core.registry import get_registry
+from sysid_core.model import FittedModel
+from sysid_core.registry import Registry, get_registry
+from sysid_core.validation import check_rank_condition, validate
 
 __version__ = "0.1.0"
 
@@ -27,6 +21,7 @@ __all__ = [
     "FittedModel",
     "ModelStructure",
     "Objective",
+    "Registry",
     "Solver",
     "SysidError",
     "TuningCriterion",

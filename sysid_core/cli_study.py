@@ -8,10 +8,10 @@ from typing import Annotated
 
 import typer
 
-from sysid_core.cli import JsonOption, OutDirOption, app, err, out
+from sysid_core.cli_app import JsonOption, OutDirOption, command, err, out
 
 
-@app.command("study")
+@command("study")
 def study_cmd(
     config: Annotated[Path, typer.Argument(help="Study configuration (TOML with a study table).")],
     out_dir: OutDirOption = None,
@@ -45,8 +45,8 @@ def study_cmd(
         raise ConfigError(f"--executor must be 'dask' or 'local', not {executor!r}")
     cfg = load_study_config(config)
     target = out_dir or Path("runs") / config.stem
-    plan_study(cfg, target)  # refuse a bad study before showing progress (run_study re-checks)
-    command = "sysid " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    plan = plan_study(cfg, target)  # refuse a bad study before showing progress
+    invocation = "sysid " + " ".join(shlex.quote(a) for a in sys.argv[1:])
     with Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -64,7 +64,15 @@ def study_cmd(
                 err.print(f"[yellow]{message}[/]")
 
         full = run_study(
-            cfg, target, executor, workers, scheduler, progress, plots=not no_plots, command=command
+            cfg,
+            target,
+            executor,
+            workers,
+            scheduler,
+            progress,
+            plots=not no_plots,
+            command=invocation,
+            plan=plan,
         )
     primary = full["summary"][full["primary_objective"]]
     if as_json:

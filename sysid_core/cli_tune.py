@@ -10,7 +10,7 @@ from typing import Annotated
 
 import typer
 
-from sysid_core.cli import Interrupted, JsonOption, OutDirOption, command, err, out
+from sysid_core.cli_app import Interrupted, JsonOption, OutDirOption, command, err, out
 
 
 @command("tune")

@@ -2,15 +2,24 @@
 
 Tables (the public contract, docs/contracts.md)::
 
-    [device]        name = "cloverleaf", plus the device factory's keyword options
-    [model]         structure = "act" | "sen", order = 1, objective = "minimax" | "least-squares"
-    [solver]        name = "clarabel" | "scs", plus the solver's options
-    [tuning]        criterion, start_bias, acceptance_hz, max_iterations, target_hz,
-                    electrodes (subset to tune), tolerance_hz
-    [experiment]    band_hz, resolution_hz, bias_step, refine_span_hz, refine_resolution_hz,
-                    verify_span_hz, verify_resolution_hz, max_points, timeout_s
+    [device]          name = "cloverleaf", plus the device's options
+    [model]           structure = "act" | "sen", order = 1
+    [model.options]   the structure's other options
+    [objective]       name = "minimax" | "least-squares", plus the objective's options
+    [solver]          name = "clarabel" | "scs", plus the solver's options
+    [tuning]          criterion, start_bias, acceptance_hz, max_iterations, electrodes (subset
+                      to tune), and the criterion options target_hz, tolerance_hz
+    [tuning.options]  the criterion's other options
+    [experiment]      band_hz, resolution_hz, bias_step, refine_span_hz, refine_resolution_hz,
+                      verify_span_hz, verify_resolution_hz, max_points, timeout_s
 
-Unknown keys are an error that names the key and its table.
+**The rule for plugin options**, the same for every kind: the key that names the plugin
+(``name``, ``structure``, ``criterion``) chooses it, and its options are the other keys of its
+table, or, in ``[model]`` and ``[tuning]``, which also hold the run's own keys, the keys of their
+``options`` sub-table. Every option is checked against the plugin's own parameters by one
+function (:func:`sysid_core.options.check_options`) before anything is measured.
+
+Unknown keys of the fixed tables are an error that names the key and its table.
 """
 
 from __future__ import annotations
@@ -47,12 +56,28 @@ class DeviceConfig(BaseModel):
 
 
 class ModelConfig(_Strict):
-    """``[model]``."""
+    """``[model]``: the structure, its ``order`` and its other ``options``."""
 
     structure: str = "act"
-    order: int = Field(1, ge=0, le=6)
-    objective: str = "minimax"
-    objective_options: dict[str, Any] = Field(default_factory=dict)
+    order: int = 1
+    options: dict[str, Any] = Field(default_factory=dict)
+
+    @property
+    def structure_options(self) -> dict[str, Any]:
+        """Keyword options for the structure's factory (``order`` included)."""
+        return {"order": self.order, **self.options}
+
+
+class ObjectiveConfig(BaseModel):
+    """``[objective]``: the fit objective's name and its options."""
+
+    model_config = ConfigDict(extra="allow", frozen=True)
+    name: str = "minimax"
+
+    @property
+    def options(self) -> dict[str, Any]:
+        """Keyword options for the objective's factory."""
+        return dict(self.model_extra or {})
 
 
 class SolverConfig(BaseModel):
@@ -77,6 +102,19 @@ class TuningConfig(_Strict):
     target_hz: float | None = Field(None, gt=0)
     electrodes: list[str] | None = None
     tolerance_hz: float | None = Field(None, gt=0)
+    options: dict[str, Any] = Field(default_factory=dict)
+
+    @property
+    def criterion_options(self) -> dict[str, Any]:
+        """Keyword options for the criterion's factory: ``options`` plus ``target_hz`` and
+        ``tolerance_hz`` when given."""
+        given = {k: v for k in ("target_hz", "tolerance_hz") if (v := getattr(self, k)) is not None}
+        both = sorted(set(given) & set(self.options))
+        if both:
+            raise ConfigError(
+                f"[tuning] {both[0]} is given twice, in [tuning] and in [tuning.options]; keep one"
+            )
+        return {**self.options, **given}
 
     @field_validator("electrodes")
     @classmethod
@@ -128,6 +166,7 @@ class PipelineConfig(_Strict):
 
     device: DeviceConfig
     model: ModelConfig = ModelConfig()
+    objective: ObjectiveConfig = ObjectiveConfig()
     solver: SolverConfig = SolverConfig()
     tuning: TuningConfig = TuningConfig()
     experiment: ExperimentConfig = ExperimentConfig()
@@ -166,8 +205,18 @@ def _describe(err: ValidationError) -> str:
     return "; ".join(parts)
 
 
+#: Keys that moved, and where to: a clear error instead of "unknown key".
+_MOVED = {
+    ("model", "objective"): "[objective] name",
+    ("model", "objective_options"): "the [objective] table (its keys are the options)",
+}
+
+
 def parse_config(data: dict[str, Any], source: str = "config") -> PipelineConfig:
     """Validate a configuration mapping (as read from TOML)."""
+    for (table, key), where in _MOVED.items():
+        if isinstance(data.get(table), dict) and key in data[table]:
+            raise ConfigError(f"{source}: [{table}] {key} has moved to {where}")
     try:
         return PipelineConfig.model_validate(data)
     except ValidationError as exc:

@@ -1,4 +1,4 @@
-"""Conic programs in standard form: the meeting point of objectives and solvers.
+"""Conic programs in standard form, the solver interface, and the building blocks of both.
 
 A :class:`ConicProgram` is
 
@@ -10,26 +10,60 @@ where :math:`\\mathcal K` is the product, in this order, of a zero cone, a nonne
 second-order cones and positive-semidefinite cones. A PSD cone of size :math:`n` takes the
 scaled lower triangle of a symmetric matrix in column-major order (off-diagonal entries multiplied
 by :math:`\\sqrt 2`), which is SCS's convention; backends that use another order permute rows.
+
+This is where objectives (which assemble programs) and solvers (which solve them) meet: a
+:class:`Solver` backend returns a :class:`ConicSolution` whose :class:`SolveStatus` is the
+toolkit's own, never the solver's word, or raises :class:`~sysid_core.errors.SolverError`
+carrying that status.
+
+Building blocks shared by every program: :func:`svec_indices` (positions in a PSD cone),
+:func:`sym` / :data:`SYM_BASIS` (the symmetric 2×2 matrices the models are made of) and
+:func:`svec2` (a symmetric 2×2 matrix as the three rows of a 2×2 PSD cone).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import enum
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
 from functools import cache
+from typing import ClassVar
 
 import numpy as np
 import scipy.sparse as sp
 
 __all__ = [
+    "SQRT2",
+    "SVEC_SYM",
+    "SYM_BASIS",
     "ConeDims",
     "ConicProgram",
     "ConicSolution",
+    "SolveStatus",
+    "Solver",
+    "svec2",
     "svec_indices",
     "svec_length",
+    "sym",
     "upper_colmajor_permutation",
 ]
 
 SQRT2 = float(np.sqrt(2.0))
+
+#: Symmetric 2×2 basis: a symmetric matrix is ``x0*S0 + x1*S1 + x2*S2``.
+SYM_BASIS = np.array([[[1.0, 0.0], [0.0, 0.0]], [[0.0, 1.0], [1.0, 0.0]], [[0.0, 0.0], [0.0, 1.0]]])
+#: The svec (lower, column-major, scaled) of ``x0*S0 + x1*S1 + x2*S2`` is ``SVEC_SYM @ x``.
+SVEC_SYM = np.diag([1.0, SQRT2, 1.0])
+
+
+def sym(v: np.ndarray) -> np.ndarray:
+    """The symmetric 2×2 matrix with entries ``[[v0, v1], [v1, v2]]``."""
+    return np.tensordot(np.asarray(v, dtype=float), SYM_BASIS, axes=1)
+
+
+def svec2(x: np.ndarray) -> np.ndarray:
+    """The rows of a 2×2 PSD cone for the symmetric matrix ``x``: ``[x00, √2 x10, x11]``."""
+    return np.array([x[0, 0], SQRT2 * x[1, 0], x[1, 1]])
 
 
 def svec_length(n: int) -> int:
@@ -104,7 +138,6 @@ class ConicProgram:
     b: np.ndarray
     cones: ConeDims
     P: sp.csc_matrix | None = None
-    meta: dict[str, object] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         m, n = self.A.shape
@@ -122,35 +155,61 @@ class ConicProgram:
         """Number of variables."""
         return int(self.A.shape[1])
 
-    @property
-    def n_constraints(self) -> int:
-        """Number of constraint rows."""
-        return int(self.A.shape[0])
+
+class SolveStatus(enum.Enum):
+    """How a solve ended, in the toolkit's words (each backend maps its solver's to these)."""
+
+    #: An accurate optimum: the only status a :class:`ConicSolution` carries.
+    SOLVED = "solved"
+    #: Close to an optimum but not within tolerance (Clarabel "AlmostSolved", SCS
+    #: "solved_inaccurate"): more data points or another solver may help.
+    INACCURATE = "inaccurate"
+    #: The program has no feasible point.
+    INFEASIBLE = "infeasible"
+    #: The objective is unbounded below.
+    UNBOUNDED = "unbounded"
+    #: Stopped by an iteration or time limit.
+    LIMIT = "limit"
+    #: Anything else: numerical trouble, a malformed program, an unknown status word.
+    FAILED = "failed"
+
+    def __str__(self) -> str:
+        return self.value
 
 
-@dataclass
+@dataclass(frozen=True)
 class ConicSolution:
-    """What a :class:`~sysid_core.interfaces.Solver` returns.
+    """What a :class:`Solver` returns (only for :attr:`SolveStatus.SOLVED`).
 
     Attributes
     ----------
     x : ndarray
         Primal solution.
-    objective : float
-        Objective value at ``x``.
-    status : str
-        ``"solved"``; a backend raises :class:`~sysid_core.errors.SolverError` otherwise.
-    solver_status : str
-        The solver's own status word.
     iterations : int
         Iterations the solver took.
-    solve_time : float
-        Seconds spent in the solver.
     """
 
     x: np.ndarray
-    objective: float
-    status: str
-    solver_status: str
     iterations: int
-    solve_time: float
+
+
+class Solver(ABC):
+    """A conic-solver backend: solves a :class:`ConicProgram`.
+
+    A backend maps its solver's status words to :class:`SolveStatus` (``STATUS_MAP``): anything
+    but an accurate optimum raises :class:`~sysid_core.errors.SolverError` with that status,
+    never a silently bad answer. An unknown status word maps to ``FAILED``.
+    """
+
+    name: ClassVar[str]
+    description: ClassVar[str] = ""
+    #: The solver's status words and what they mean to the toolkit.
+    STATUS_MAP: ClassVar[dict[str, SolveStatus]] = {}
+
+    @abstractmethod
+    def solve(self, program: ConicProgram) -> ConicSolution:
+        """Solve ``program`` and return its solution, or raise ``SolverError``."""
+
+    def status(self, word: str) -> SolveStatus:
+        """The toolkit's status for the solver's status ``word``."""
+        return self.STATUS_MAP.get(word, SolveStatus.FAILED)

@@ -83,11 +83,20 @@ class PluginNotFoundError(PluginError, LookupError):
 
 
 class SolverError(SysidError, RuntimeError):
-    """A conic solver failed or returned an inaccurate answer."""
+    """A conic solver failed or returned an inaccurate answer.
 
-    def __init__(self, message: str, status: str | None = None) -> None:
+    Attributes
+    ----------
+    status : sysid_core.conic.SolveStatus or None
+        How the solve ended, in the toolkit's words.
+    word : str or None
+        The solver's own status word (for messages only).
+    """
+
+    def __init__(self, message: str, status: object = None, word: str | None = None) -> None:
         super().__init__(message)
         self.status = status
+        self.word = word
 
 
 class FitError(SysidError, RuntimeError):

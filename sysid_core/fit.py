@@ -1,34 +1,45 @@
-"""One call from a data set to a fitted model: :func:`fit`."""
+"""From a data set to a fitted model and back: :func:`fit`, :func:`check_fit`, :func:`load_model`.
+
+These are the entry points for Python users, who name components (``"act"``, ``"minimax"``);
+names are looked up in the plugin registry passed in, or the process-wide one. Component
+objects passed in are used as they are (the pipeline passes the ones it built).
+"""
 
 from __future__ import annotations
 
+import os
 import time
 import warnings
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import xarray as xr
 from threadpoolctl import threadpool_limits
 
+from sysid_core.conic import Solver
 from sysid_core.data import measured_mask
-from sysid_core.errors import FitWarning
-from sysid_core.interfaces import ModelStructure, Objective, ProgressCallback, Solver
-from sysid_core.model import FittedModel
+from sysid_core.errors import DataError, FitWarning
+from sysid_core.model import FittedModel, model_from_dataset, model_from_problem
+from sysid_core.objective import Objective, Progress
 from sysid_core.problem import FitProblem
-from sysid_core.registry import get_registry
+from sysid_core.registry import Registry, get_registry
+from sysid_core.structures import ModelStructure
 
-__all__ = ["RESONANCE_RATIO", "check_fit", "fit"]
+__all__ = ["RESONANCE_RATIO", "check_fit", "fit", "load_model"]
 
 #: An experiment whose largest response is less than this many times its smallest shows no
 #: resonance (a narrow window beside the modes, or a disconnected sensor).
 RESONANCE_RATIO = 1.5
 
 
-def _component(value: Any, cls: type, what: str, kind: str, **options: Any) -> Any:
+def _component(
+    registry: Registry | None, value: Any, cls: type, what: str, kind: str, **options: Any
+) -> Any:
     if isinstance(value, cls):
         return value
     if isinstance(value, str):
-        return get_registry().create(kind, value, **options)
+        return (registry or get_registry()).create(kind, value, **options)
     raise TypeError(
         f"{what} must be a name (str) or a {cls.__name__}, not {type(value).__name__} "
         f"({value!r})"
@@ -41,9 +52,10 @@ def fit(
     order: int = 1,
     objective: str | Objective = "minimax",
     solver: str | Solver = "clarabel",
-    progress: ProgressCallback | None = None,
+    progress: Progress | None = None,
     objective_options: dict[str, Any] | None = None,
     solver_options: dict[str, Any] | None = None,
+    registry: Registry | None = None,
 ) -> FittedModel:
     """Fit one bias-dependent model to every experiment of ``dataset`` at once.
 
@@ -63,6 +75,8 @@ def fit(
         Receives one-line progress messages.
     objective_options, solver_options : dict, optional
         Passed to the objective's / solver's factory when given by name.
+    registry : Registry, optional
+        Where names are looked up (default: the process-wide registry).
 
     Returns
     -------
@@ -91,11 +105,13 @@ def fit(
             f"dataset must be an xarray.Dataset (see sysid_core.load_dataset), not "
             f"{type(dataset).__name__}"
         )
-    structure = _component(structure, ModelStructure, "structure", "model structure", order=order)
-    objective = _component(
-        objective, Objective, "objective", "objective", **(objective_options or {})
+    structure = _component(
+        registry, structure, ModelStructure, "structure", "model structure", order=order
     )
-    solver = _component(solver, Solver, "solver", "solver", **(solver_options or {}))
+    objective = _component(
+        registry, objective, Objective, "objective", "objective", **(objective_options or {})
+    )
+    solver = _component(registry, solver, Solver, "solver", "solver", **(solver_options or {}))
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be callable, not {type(progress).__name__}")
     t0 = time.perf_counter()
@@ -103,7 +119,7 @@ def fit(
         problem = FitProblem(dataset, structure)
         result = objective.fit(problem, solver, progress)
     elapsed = time.perf_counter() - t0
-    model = problem.to_model(result, solver=solver.name, fit_time_s=elapsed)
+    model = model_from_problem(problem, result, solver=solver.name, fit_time_s=elapsed)
     for message in check_fit(dataset, model):
         warnings.warn(message, FitWarning, stacklevel=2)
     return model
@@ -153,3 +169,26 @@ def check_fit(dataset: xr.Dataset, model: FittedModel) -> list[str]:
             + "): the model extrapolates; measure over a band that contains both modes"
         )
     return found
+
+
+def load_model(path: str | os.PathLike[str], registry: Registry | None = None) -> FittedModel:
+    """Read a model written by :meth:`FittedModel.save`.
+
+    The model structure is rebuilt by name and order from ``registry`` (default: the
+    process-wide one). Files written before channel names were saved load with the default
+    names ``y1, y2`` / ``u1, u2``.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise DataError(f"no model file at {path}")
+    try:
+        with xr.open_dataset(path, engine="h5netcdf") as raw:
+            ds = raw.load()
+    except (OSError, ValueError) as exc:
+        raise DataError(f"cannot read {path} as a model (netCDF): {exc}") from exc
+    if "structure" not in ds.attrs or "M" not in ds:
+        raise DataError(f"{path} is not a model file written by sysid (no structure, no M)")
+    structure = (registry or get_registry()).structure(
+        str(ds.attrs["structure"]), order=int(ds.attrs["order"])
+    )
+    return model_from_dataset(ds, structure)

@@ -18,17 +18,74 @@ import math
 import threading
 from collections.abc import Sequence
 from numbers import Real
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 import xarray as xr
 
 from sysid_core.errors import BiasLimitError, DeviceError, InvalidAnswerError, SysidError
-from sysid_core.interfaces import Device
 
-__all__ = ["GuardedDevice", "check_answer", "check_bias", "check_device"]
+__all__ = [
+    "Device",
+    "GuardedDevice",
+    "SimulatedDevice",
+    "check_answer",
+    "check_bias",
+    "check_device",
+    "ground_truth",
+]
 
 _DIMS = ("frequency", "output", "input")
+
+
+@runtime_checkable
+class Device(Protocol):
+    """What the toolkit needs of a gyro, simulated or real (duck-typed).
+
+    Attributes
+    ----------
+    electrodes : Sequence[str]
+        Names of the bias electrodes (``n_e`` of them).
+    bias_limits : tuple of float
+        Allowed bias ``dv`` in volts, ``(low, high)``, for every electrode.
+    structure_potential : float
+        ``v_gyro`` in volts; the electrode potential seen by the structure is ``v_gyro - dv``.
+    band_hz : tuple of float
+        The frequency band, in Hz, where the two modes are.
+    """
+
+    electrodes: Sequence[str]
+    bias_limits: tuple[float, float]
+    structure_potential: float
+    band_hz: tuple[float, float]
+
+    def measure(self, bias: Sequence[float], frequencies_hz: np.ndarray) -> xr.DataArray:
+        """Apply ``bias`` (volts, one per electrode) and measure the frequency response.
+
+        Returns a complex ``DataArray`` with dims ``("frequency", "output", "input")``. The core
+        checks ``bias`` against ``bias_limits`` before calling.
+        """
+        ...
+
+
+@runtime_checkable
+class SimulatedDevice(Device, Protocol):
+    """A device that knows its own ground truth (a simulation; real hardware has none).
+
+    Studies and tests use it to report the TRUE split of a tuning, which the tuning itself
+    never sees.
+    """
+
+    def true_modal_frequencies_hz(self, bias: Sequence[float]) -> np.ndarray:
+        """The true undamped modal frequencies at ``bias`` (Hz, ascending)."""
+        ...
+
+
+def ground_truth(device: object) -> SimulatedDevice | None:
+    """``device`` (or the device inside a :class:`GuardedDevice`) if it is a
+    :class:`SimulatedDevice`, else None."""
+    raw = device.device if isinstance(device, GuardedDevice) else device
+    return raw if isinstance(raw, SimulatedDevice) else None
 
 
 def _is_real(value: Any) -> bool:

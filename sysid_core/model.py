@@ -9,6 +9,11 @@ with the response :math:`P(\\nu) Z^{-1}` ("act") or :math:`Z^{-1}P(\\nu)` ("sen"
 :math:`P(\\nu)=\\sum_l P_l\\nu^l` is the complex feedthrough polynomial in the normalised
 frequency :math:`\\nu = (\\omega - \\omega_c)/h`. (The paper writes :math:`\\tilde R` in powers of
 :math:`\\omega`; the same polynomial space is spanned, with far better conditioning.)
+
+:func:`model_from_problem` maps a fit's scaled solution to physical units;
+:func:`model_from_dataset` reads what :meth:`FittedModel.to_dataset` wrote (loading a file by
+name needs the plugin registry: :func:`sysid_core.fit.load_model`). The exports to
+python-control live in :mod:`sysid_core.export`.
 """
 
 from __future__ import annotations
@@ -16,7 +21,6 @@ from __future__ import annotations
 import json
 import numbers
 import os
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,40 +30,33 @@ import numpy as np
 import scipy.linalg
 import xarray as xr
 
-from sysid_core.errors import DataError, FrequencyGridError, ModelError, SysidWarning
+from sysid_core import export
+from sysid_core.conic import sym
+from sysid_core.data import measured_mask, squared_potentials
+from sysid_core.errors import DataError, ModelError
 from sysid_core.io import atomic_write
-from sysid_core.simulation import modal_analysis
+from sysid_core.modal import modal_analysis
+from sysid_core.problem import FitProblem, sigma_max_2x2
+from sysid_core.structures import ModelStructure
 
 if TYPE_CHECKING:
     import control
 
-    from sysid_core.interfaces import ModelStructure
+    from sysid_core.objective import ObjectiveResult
 
 __all__ = [
     "DEFAULT_INPUTS",
     "DEFAULT_OUTPUTS",
     "FittedModel",
     "ModalReport",
-    "load_model",
+    "model_from_dataset",
+    "model_from_problem",
     "snr_loss_db",
 ]
 
 #: Channel names of a model whose data set did not name its channels.
 DEFAULT_OUTPUTS: tuple[str, str] = ("y1", "y2")
 DEFAULT_INPUTS: tuple[str, str] = ("u1", "u2")
-#: Points of the grid over the band on which :meth:`FittedModel.to_statespace` fits and measures.
-N_BAND_POINTS = 1001
-#: :meth:`FittedModel.to_statespace` keeps the two modes in triangular (Schur) form instead of
-#: diagonal form when the eigenvectors' condition number exceeds this (nearly defective modes).
-MODAL_COND_LIMIT = 1e6
-#: Background poles of :meth:`FittedModel.to_statespace`, in units of the band centre (rad/s):
-#: tried in this order, the first set that meets the tolerance is used.
-BACKGROUND_POLES: tuple[tuple[float, ...], ...] = (
-    (),
-    (1.0,),
-    (1 / 3, 1.0, 3.0),
-    (0.3, 0.3**0.5, 1.0, 3**0.5, 3.0),
-)
 
 
 def snr_loss_db(split_hz: float, center_hz: float, q: float) -> float:
@@ -170,7 +167,7 @@ class FittedModel:
         """Number of bias electrodes."""
         return len(self.electrodes)
 
-    def _bias(self, bias: Sequence[float] | None) -> np.ndarray:
+    def check_bias(self, bias: Sequence[float] | None) -> np.ndarray:
         """``bias`` as a checked float array: numbers (else ``TypeError``), one per electrode
         (else :class:`DataError`), finite (else :class:`ModelError`)."""
         if bias is None:
@@ -200,7 +197,7 @@ class FittedModel:
             )
         return b
 
-    def _system_name(self, b: np.ndarray) -> str:
+    def label(self, b: np.ndarray) -> str:
         """``"act model at B1=2,04 V; B2=4,39 V"`` for a checked bias ``b``.
 
         A decimal comma: python-control reserves ``.`` in system names.
@@ -208,7 +205,7 @@ class FittedModel:
         bias = "; ".join(f"{e}={v:.6g} V" for e, v in zip(self.electrodes, b, strict=True))
         return f"{self.structure.name} model at {bias or 'no bias electrodes'}".replace(".", ",")
 
-    def _require_modes(self, b: np.ndarray) -> np.ndarray:
+    def modal_stiffness(self, b: np.ndarray) -> np.ndarray:
         """The stiffness at the checked bias ``b``; :class:`ModelError` unless it is positive
         definite relative to ``M`` (two oscillating modes)."""
         k = self.stiffness(b)
@@ -235,7 +232,7 @@ class FittedModel:
 
     def squared_potentials(self, bias: Sequence[float] | None) -> np.ndarray:
         """``w_p = (v_gyro - dv_p)**2``."""
-        return (self.structure_potential - self._bias(bias)) ** 2
+        return squared_potentials(self.structure_potential, self.check_bias(bias))
 
     def stiffness_w(self, w: np.ndarray) -> np.ndarray:
         """``K0 + sum_p K_p w_p`` for squared potentials ``w``."""
@@ -268,9 +265,6 @@ class FittedModel:
 
         Unmeasured points are NaN.
         """
-        from sysid_core.data import measured_mask
-        from sysid_core.problem import sigma_max_2x2
-
         mask = measured_mask(dataset)
         f = dataset["frequency"].values
         out = np.full(mask.shape, np.nan)
@@ -294,8 +288,8 @@ class FittedModel:
         TypeError
             For a bias that is not numbers.
         """
-        b = self._bias(bias)
-        undamped, damped, q = modal_analysis(self.M, self.C, self._require_modes(b))
+        b = self.check_bias(bias)
+        undamped, damped, q = modal_analysis(self.M, self.C, self.modal_stiffness(b))
         split = float(undamped[1] - undamped[0])
         return ModalReport(
             bias=b.tolist(),
@@ -315,80 +309,6 @@ class FittedModel:
         return self.modal(bias).split_hz
 
     # ------------------------------------------------------------------ python-control
-    def _band(self, band_hz: tuple[float, float] | None) -> tuple[float, float]:
-        """``band_hz`` checked, or the fitted band ``omega_center ± omega_half`` (Hz)."""
-        if band_hz is None:
-            return (
-                (self.omega_center - self.omega_half) / (2 * np.pi),
-                (self.omega_center + self.omega_half) / (2 * np.pi),
-            )
-        try:
-            lo, hi = (float(x) for x in band_hz)
-        except (TypeError, ValueError):
-            raise FrequencyGridError(
-                f"band_hz must be two frequencies (low, high) in Hz; got {band_hz!r}"
-            ) from None
-        if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi):
-            raise FrequencyGridError(
-                f"band_hz must be finite frequencies with 0 < low < high (Hz); got ({lo}, {hi})"
-            )
-        return lo, hi
-
-    def _resonant_part(self, k: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Principal part of the response at its two upper poles, as ``Cc (sI - T)^-1 Bc``.
-
-        ``T`` (2, 2) holds the upper poles of ``Z^-1`` (diagonal unless they are nearly
-        defective, then upper triangular); ``Bc`` (2, 2) and ``Cc`` (2, 2) are complex. The
-        principal part of ``P(nu(s)) C (sI - T)^-1 B`` is ``sum_l P_l C N^l (sI - T)^-1 B``
-        with the matrix ``N = nu(-jT)`` (``act``; mirrored for ``sen``): the analytic
-        continuation of ``P`` to the poles, exact also for repeated poles.
-        """
-        w0 = self.omega_center
-        minv = np.linalg.inv(self.M)
-        # States x and x'/w0: every entry of A is O(w0), so the poles are accurate to eps*w0
-        # (with x' itself the O(w0^2) stiffness block costs about five digits of the damping).
-        a = np.block([[np.zeros((2, 2)), w0 * np.eye(2)], [-minv @ k / w0, -minv @ self.C]])
-        t, q, n_upper = scipy.linalg.schur(
-            a.astype(complex), output="complex", sort=lambda z: z.imag > 0
-        )
-        poles = np.diag(t)
-        if n_upper != 2 or not np.all(np.isfinite(poles)) or np.any(poles.real >= 0):
-            raise ModelError(
-                "the model's mechanical poles at this bias are not two stable oscillating "
-                f"modes (poles {', '.join(f'{p:.6g}' for p in poles)} rad/s): its damping C "
-                "must be positive definite and its modes underdamped"
-            )
-        t11, t12, t22 = t[:2, :2], t[:2, 2:], t[2:, 2:]
-        # Block-diagonalise: T11 S - S T22 = -T12; the upper and lower poles are 2*w0 apart.
-        sylvester = scipy.linalg.solve_sylvester(t11, -t22, -t12)
-        qh = q.conj().T
-        left = qh[:2] - sylvester @ qh[2:]  # rows spanning the upper left-invariant subspace
-        cx = q[:2, :2]  # [I 0] X
-        yb = left[:, 2:] @ (minv / w0)  # Y [0; M^-1 / w0]
-        nu = (-1j * t11 - w0 * np.eye(2)) / self.omega_half
-        powers = [np.eye(2, dtype=complex)]
-        for _ in range(1, self.poly.shape[0]):
-            powers.append(powers[-1] @ nu)
-        side = self.structure.side
-        if side == "output":  # P Z^-1
-            cc = sum(self.poly[d] @ cx @ powers[d] for d in range(self.poly.shape[0]))
-            bc = yb
-        elif side == "input":  # Z^-1 P
-            cc = cx
-            bc = sum(powers[d] @ yb @ self.poly[d] for d in range(self.poly.shape[0]))
-        else:
-            raise ModelError(
-                f"model structure {self.structure.name!r} has side {side!r}; "
-                "to_statespace knows 'output' (P Z^-1) and 'input' (Z^-1 P)"
-            )
-        lam, vec = np.linalg.eig(t11)
-        if np.linalg.cond(vec) < MODAL_COND_LIMIT:  # modal form, unless nearly defective
-            t11, cc, bc = np.diag(lam), cc @ vec, np.linalg.solve(vec, bc)
-        # Balance each state: |column of Cc| = |row of Bc|.
-        cn, bn = np.linalg.norm(cc, axis=0), np.linalg.norm(bc, axis=1)
-        d = np.where((cn > 0) & (bn > 0), np.sqrt(bn / np.where(cn > 0, cn, 1.0)), 1.0)
-        return t11 * d[None, :] / d[:, None], bc / d[:, None], cc * d[None, :]
-
     def to_statespace(
         self,
         bias: Sequence[float] | None = None,
@@ -396,191 +316,23 @@ class FittedModel:
         *,
         rtol: float = 1e-2,
     ) -> control.StateSpace:
-        """A real, stable state-space system that reproduces :meth:`response` over a band.
+        """A real, stable state-space system reproducing :meth:`response` over a band.
 
-        The complex polynomial ``P`` has complex coefficients in the real frequency, so the
-        model is not a real rational function of ``s``; the realisation matches it over
-        ``band_hz`` only. It is built in two parts:
-
-        * the resonances, exactly: the two upper poles ``p_i`` of ``Z^-1`` with their exact
-          residues ``P(nu(-j p_i)) R_i`` (``act``) or ``R_i P(nu(-j p_i))`` (``sen``), ``R_i``
-          the rank-one residue of ``Z^-1`` and ``P`` continued to the complex frequency. Each
-          mode and its conjugate is one real 2-state block ``[[Re p, -Im p], [Im p, Re p]]``
-          (states ``mode<i>_re``, ``mode<i>_im``);
-        * the smooth remainder over the band (at the conjugate poles a real system's residues
-          are the conjugates, the model's are not), fitted by least squares with a real ``D`` and
-          as few real background poles ``-a omega_b`` (``omega_b`` the band centre,
-          ``a`` in 0.3 … 3, 2 states ``bg<k>_<input>`` each) as reach ``rtol``: 0, 1, 3 or 5.
-
-        Parameters
-        ----------
-        bias : sequence of float, optional
-            Bias potentials (volts relative to ground), one per electrode; default 0 V.
-        band_hz : (float, float), optional
-            Band (Hz) to match; default the fitted band ``omega_center ± omega_half``.
-        rtol : float
-            Target for ``approximation_error``; the fewest background poles that meet it are
-            used. Default 1 %.
-
-        Returns
-        -------
-        control.StateSpace
-            Inputs and outputs named after the data's channels (:attr:`inputs`,
-            :attr:`outputs`), named after the bias. Attributes set on it, measured on
-            ``N_BAND_POINTS`` (1001) evenly spaced frequencies ``f`` of the band with ``G``
-            the model's response and ``G_ss`` the system's:
-
-            ``approximation_error``
-                ``sqrt(sum |G_ss - G|^2 / sum |G|^2)`` over all points and entries.
-            ``approximation_error_peak``
-                ``max |G_ss - G|`` (largest entry error at any point) divided by the largest
-                ``|G|`` entry over the band.
-            ``approximation_band_hz``
-                The band ``(low, high)``.
-
-        Raises
-        ------
-        ModelError
-            For a non-finite bias, or one at which the model has no oscillating modes.
-        FrequencyGridError
-            For a ``band_hz`` that is not two finite frequencies with ``0 < low < high``.
-        TypeError
-            For a bias that is not numbers.
-
-        Warns
-        -----
-        SysidWarning
-            When even 5 background poles leave ``approximation_error > rtol`` (a band far
-            wider than the fitted one).
+        See :func:`sysid_core.export.to_statespace` (the realisation, its error attributes
+        ``approximation_error`` and ``approximation_error_peak``, and ``rtol``).
         """
-        import control
-
-        if isinstance(rtol, bool) or not (isinstance(rtol, (int, float)) and rtol > 0):
-            raise ModelError(f"rtol must be a positive number; got {rtol!r}")
-        b = self._bias(bias)
-        k = self._require_modes(b)
-        lo, hi = self._band(band_hz)
-        f = np.linspace(lo, hi, N_BAND_POINTS)
-        omega = 2 * np.pi * f
-        target = self.response(f, b)
-        scale = float(np.linalg.norm(target))
-
-        t, bc, cc = self._resonant_part(k)
-        a_res, b_res, c_res = _real_realisation(t, bc, cc)
-        rest = target - _frequency_response(a_res, b_res, c_res, np.zeros((2, 2)), omega)
-        rest = rest.reshape(-1, 4)
-
-        omega_b = np.pi * (lo + hi)
-        chosen: tuple[float, np.ndarray, np.ndarray] | None = None
-        for poles in BACKGROUND_POLES:
-            rates = omega_b * np.asarray(poles, dtype=float)
-            basis = np.column_stack(
-                [np.ones_like(omega, dtype=complex)] + [r / (1j * omega + r) for r in rates]
-            )
-            lhs = np.concatenate([basis.real, basis.imag])
-            norms = np.linalg.norm(lhs, axis=0)  # unit columns: a well-posed least squares
-            coef = (
-                np.linalg.lstsq(lhs / norms, np.concatenate([rest.real, rest.imag]), rcond=None)[0]
-                / norms[:, None]
-            )
-            err = float(np.linalg.norm(basis @ coef - rest)) / scale
-            if chosen is None or err < chosen[0]:
-                chosen = (err, rates, coef)
-            if err <= rtol:
-                chosen = (err, rates, coef)
-                break
-        assert chosen is not None
-        _, rates, coef = chosen
-
-        n_bg = rates.size
-        a = scipy.linalg.block_diag(a_res, *(-r * np.eye(2) for r in rates))
-        b_ss = np.vstack([b_res, *(r * np.eye(2) for r in rates)])
-        c_ss = np.hstack([c_res, *(coef[1 + i].reshape(2, 2) for i in range(n_bg))])
-        d_ss = coef[0].reshape(2, 2)
-        states = [f"mode{i + 1}_{part}" for i in range(2) for part in ("re", "im")]
-        states += [f"bg{i + 1}_{u}" for i in range(n_bg) for u in self.inputs]
-        sys = control.StateSpace(
-            a,
-            b_ss,
-            c_ss,
-            d_ss,
-            inputs=list(self.inputs),
-            outputs=list(self.outputs),
-            states=states,
-            name=self._system_name(b),
-        )
-        g_ss = _frequency_response(a, b_ss, c_ss, d_ss, omega)
-        sys.approximation_error = float(np.linalg.norm(g_ss - target)) / scale
-        sys.approximation_error_peak = float(np.abs(g_ss - target).max() / np.abs(target).max())
-        sys.approximation_band_hz = (lo, hi)
-        if sys.approximation_error > rtol:
-            warnings.warn(
-                f"to_statespace: the realisation matches the model to "
-                f"{sys.approximation_error:.2g} (relative) over {lo:g}-{hi:g} Hz, not {rtol:g}: "
-                "narrow band_hz towards the fitted band",
-                SysidWarning,
-                stacklevel=2,
-            )
-        return sys
+        return export.to_statespace(self, bias, band_hz, rtol=rtol)
 
     def to_frd(
         self,
         frequencies_hz: Sequence[float] | np.ndarray | None = None,
         bias: Sequence[float] | None = None,
     ) -> control.FrequencyResponseData:
-        """The model's exact response at ``bias`` as a :class:`control.FrequencyResponseData`.
+        """The model's exact response at ``bias`` as a python-control FRD.
 
-        Parameters
-        ----------
-        frequencies_hz : array_like, optional
-            Positive, strictly increasing frequencies (Hz); default 1001 points over the fitted
-            band ``omega_center ± omega_half``.
-        bias : sequence of float, optional
-            Bias potentials (volts relative to ground), one per electrode; default 0 V.
-
-        Returns
-        -------
-        control.FrequencyResponseData
-            :meth:`response` at those frequencies (stored in rad/s, as python-control expects),
-            inputs and outputs named after the data's channels, named after the bias.
-
-        Raises
-        ------
-        ModelError
-            For a non-finite bias.
-        FrequencyGridError
-            For frequencies that are not finite, positive and strictly increasing.
-        TypeError
-            For a bias that is not numbers.
+        See :func:`sysid_core.export.to_frd`.
         """
-        import control
-
-        b = self._bias(bias)
-        if frequencies_hz is None:
-            f = np.linspace(*self._band(None), N_BAND_POINTS)
-        else:
-            try:
-                f = np.atleast_1d(np.asarray(frequencies_hz, dtype=float))
-            except (TypeError, ValueError):
-                raise FrequencyGridError(
-                    f"frequencies_hz must be numbers (Hz); got {frequencies_hz!r}"
-                ) from None
-            if f.ndim != 1 or f.size == 0:
-                raise FrequencyGridError(
-                    f"frequencies_hz must be a non-empty 1-D grid; got shape {f.shape}"
-                )
-            if not np.all(np.isfinite(f)) or f.min() <= 0 or np.any(np.diff(f) <= 0):
-                raise FrequencyGridError(
-                    "frequencies_hz must be finite, positive and strictly increasing"
-                )
-        response = self.response(f, b)
-        return control.FrequencyResponseData(
-            np.transpose(response, (1, 2, 0)),
-            2 * np.pi * f,
-            inputs=list(self.inputs),
-            outputs=list(self.outputs),
-            name=self._system_name(b),
-        )
+        return export.to_frd(self, frequencies_hz, bias)
 
     # ------------------------------------------------------------------ persistence
     def to_dataset(self) -> xr.Dataset:
@@ -620,35 +372,6 @@ class FittedModel:
         return atomic_write(path, lambda tmp: ds.to_netcdf(tmp, engine="h5netcdf"))
 
 
-def _real_realisation(
-    t: np.ndarray, bc: np.ndarray, cc: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Real ``(A, B, C)`` of ``Cc (sI - T)^-1 Bc`` plus its conjugate system.
-
-    The complex state ``z_i`` becomes ``(Re z_i, Im z_i)``; the output is ``2 Re(Cc z)``.
-    """
-    n = t.shape[0]
-    a = np.zeros((2 * n, 2 * n))
-    for i in range(n):
-        for j in range(n):
-            a[2 * i : 2 * i + 2, 2 * j : 2 * j + 2] = [
-                [t[i, j].real, -t[i, j].imag],
-                [t[i, j].imag, t[i, j].real],
-            ]
-    b = np.empty((2 * n, bc.shape[1]))
-    b[0::2], b[1::2] = bc.real, bc.imag
-    c = np.empty((cc.shape[0], 2 * n))
-    c[:, 0::2], c[:, 1::2] = 2 * cc.real, -2 * cc.imag
-    return a, b, c
-
-
-def _frequency_response(
-    a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, omega: np.ndarray
-) -> np.ndarray:
-    """``C (j omega I - A)^-1 B + D``, shape ``(N, n_out, n_in)``."""
-    eye = np.eye(a.shape[0])
-    return c @ np.linalg.solve(1j * omega[:, None, None] * eye - a, b) + d
-
 
 def _jsonable(obj: object) -> object:
     if isinstance(obj, np.ndarray):
@@ -658,22 +381,12 @@ def _jsonable(obj: object) -> object:
     return str(obj)
 
 
-def load_model(path: str | os.PathLike[str]) -> FittedModel:
-    """Read a model written by :meth:`FittedModel.save`.
+def model_from_dataset(ds: xr.Dataset, structure: ModelStructure) -> FittedModel:
+    """The model :meth:`FittedModel.to_dataset` wrote, with its ``structure`` rebuilt by the
+    caller (by name and order from ``ds.attrs``: see :func:`sysid_core.fit.load_model`).
 
-    The model structure is looked up by name among the installed plugins. Files written
-    before channel names were saved load with the default names ``y1, y2`` / ``u1, u2``.
+    Files written before channel names were saved get the default names ``y1, y2`` / ``u1, u2``.
     """
-    from sysid_core.registry import get_registry
-
-    path = Path(path)
-    if not path.exists():
-        raise DataError(f"no model file at {path}")
-    with xr.open_dataset(path, engine="h5netcdf") as raw:
-        ds = raw.load()
-    structure = get_registry().create(
-        "model structure", str(ds.attrs["structure"]), order=int(ds.attrs["order"])
-    )
     return FittedModel(
         structure=structure,
         M=ds["M"].values,
@@ -690,6 +403,68 @@ def load_model(path: str | os.PathLike[str]) -> FittedModel:
         meta=json.loads(str(ds.attrs["meta"])),
         outputs=_names(ds, "output", DEFAULT_OUTPUTS),
         inputs=_names(ds, "input", DEFAULT_INPUTS),
+    )
+
+
+def model_from_problem(
+    problem: FitProblem, result: ObjectiveResult, **meta: object
+) -> FittedModel:
+    """Map an objective's scaled solution of ``problem`` back to physical units.
+
+    The inverse of the scaling of :mod:`sysid_core.problem`. The model's channel names are the
+    data set's ``output`` and ``input`` coordinates; ``meta`` is added to the model's ``meta``
+    (e.g. the solver's name and the fit time).
+    """
+    self = problem
+    coords = self.dataset.coords
+    outputs = coords["output"].values if "output" in coords else DEFAULT_OUTPUTS
+    inputs = coords["input"].values if "input" in coords else DEFAULT_INPUTS
+    s, lay, th = self.scaling, self.layout, result.theta
+    m = sym(th[lay.M])
+    c = s.omega0 * s.eps * sym(th[lay.C])
+    kp = np.array(
+        [
+            s.omega0**2 * s.eps * sym(th[lay.K(p)]) / s.w_scale[p]
+            for p in range(lay.n_electrodes)
+        ]
+    ).reshape(-1, 2, 2)
+    k_center = s.omega0**2 * (m + s.eps * sym(th[lay.D]))
+    k0 = k_center - np.tensordot(s.w_center, kp, axes=1) if len(kp) else k_center
+    poly = np.array(
+        [
+            s.psi_scale * (th[lay.poly(d)][:4] + 1j * th[lay.poly(d)][4:]).reshape(2, 2)
+            for d in range(lay.order + 1)
+        ]
+    )
+    return FittedModel(
+        structure=self.structure,
+        M=m,
+        C=c,
+        K0=k0,
+        Kp=kp,
+        poly=poly,
+        omega_center=s.omega0,
+        omega_half=s.nu_half,
+        electrodes=self.electrodes,
+        structure_potential=self.structure_potential,
+        gamma=result.gamma * s.psi_scale,
+        max_residual=result.max_residual * s.psi_scale,
+        outputs=[str(name) for name in outputs],
+        inputs=[str(name) for name in inputs],
+        meta={
+            "objective": result.objective,
+            "certified": result.certified,
+            "solves": result.solves,
+            "working_set": result.working_set,
+            "solver_iterations": result.iterations,
+            "n_points": self.n_points,
+            "n_experiments": self.n_experiments,
+            "n_parameters": self.n_parameters,
+            "device": str(self.dataset.attrs.get("device", "unknown")),
+            "band_hz": [float(self.frequency_hz.min()), float(self.frequency_hz.max())],
+            "fit_bias": self.bias.tolist(),
+            **meta,
+        },
     )
 
 

@@ -30,174 +30,35 @@ from __future__ import annotations
 
 import time
 import warnings
-from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import xarray as xr
 
+from sysid_core.components import build_components
 from sysid_core.config import PipelineConfig
 from sysid_core.data import (
-    check_rank_condition,
     concat_experiments,
     experiment_from_measurement,
     load_dataset,
     save_dataset,
 )
-from sysid_core.errors import (
-    FitWarning,
-    InvalidAnswerError,
-    RunFolderError,
-    UnreachableTuningError,
-)
+from sysid_core.errors import FitWarning, InvalidAnswerError, RunFolderError, UnreachableTuningError
 from sysid_core.fit import fit
-from sysid_core.interfaces import (
-    Device,
-    Goal,
-    ModelStructure,
-    Objective,
-    Solver,
-    TuningCriterion,
-)
 from sysid_core.io import write_json
-from sysid_core.measuring import GuardedDevice, check_bias
+from sysid_core.measuring import Device, GuardedDevice, check_bias
 from sysid_core.model import FittedModel
+from sysid_core.objective import Progress
 from sysid_core.registry import Registry, get_registry
+from sysid_core.report import plot_bias_path, plot_iteration
+from sysid_core.run_summary import IterationRecord, RunSummary, Verification, status_line
 from sysid_core.runfolder import RunFolder
 from sysid_core.sweeps import SweepPlan, design_experiments
-from sysid_core.tuning import BiasSpace, TuningResult, frequencies_from_w
+from sysid_core.tuning import BiasSpace, Goal, TuningResult, frequencies_from_w
+from sysid_core.validation import check_rank_condition
 from sysid_core.verification import WindowAssessment, assess_window
 
-__all__ = ["IterationRecord", "RunSummary", "TuningRun", "Verification"]
-
-Progress = Callable[[str], None]
-
-
-@dataclass
-class Verification:
-    """What the verification of one iteration established.
-
-    Attributes
-    ----------
-    status : str
-        ``"verified"`` (a narrow window showed both modes: the split is measured),
-        ``"located"`` (only a whole-band sweep found them: the split is approximate) or
-        ``"failed"`` (no sweep showed both modes).
-    frequencies_hz : ndarray or None
-        The measured (or located) modal frequencies.
-    windows : list of WindowAssessment
-        Every sweep of the verification with its evidence.
-    sweep : xarray.Dataset
-        The last sweep.
-    model : FittedModel
-        The single-bias model of the last sweep.
-    """
-
-    status: str
-    frequencies_hz: np.ndarray | None
-    windows: list[WindowAssessment]
-    sweep: xr.Dataset
-    model: FittedModel
-
-    @property
-    def verified(self) -> bool:
-        """Both modes were seen in a narrow window."""
-        return self.status == "verified"
-
-    @property
-    def split_hz(self) -> float | None:
-        """The measured split, or None when no sweep showed both modes."""
-        f = self.frequencies_hz
-        return None if f is None else float(f[1] - f[0])
-
-    @property
-    def frequency_hz(self) -> float | None:
-        """Mean measured modal frequency, or None."""
-        return None if self.frequencies_hz is None else float(np.mean(self.frequencies_hz))
-
-    def describe(self) -> str:
-        """One line for people."""
-        if self.status == "verified":
-            return f"measured split {self.split_hz * 1e3:.3g} mHz at {self.frequency_hz:.3f} Hz"
-        if self.status == "located":
-            return (
-                f"modes located by a whole-band sweep near {self.frequencies_hz[0]:.2f} and "
-                f"{self.frequencies_hz[1]:.2f} Hz (split about {self.split_hz:.3g} Hz, not "
-                "verified by a narrow window)"
-            )
-        return "no sweep showed both modes: " + self.windows[-1].failures()
-
-
-@dataclass
-class IterationRecord:
-    """What one iteration did."""
-
-    iteration: int
-    experiments: list[list[float]]
-    tuning: dict[str, Any]
-    verified_bias: list[float]
-    verification: str
-    measured_split_hz: float | None
-    measured_frequency_hz: float | None
-    measured_frequencies_hz: list[float] | None
-    goals: list[dict[str, Any]]
-    evidence: list[dict[str, Any]]
-    gamma: float
-    fit_time_s: float
-
-    def as_dict(self) -> dict[str, Any]:
-        """JSON-friendly form."""
-        return dict(self.__dict__)
-
-
-@dataclass
-class RunSummary:
-    """The result of a tuning run (what ``summary.json`` and ``--json`` report).
-
-    ``split_hz`` and ``frequency_hz`` are those of the last verification, or None when it did
-    not verify them; ``converged`` is true only when the last verification was verified and
-    every goal in ``goals`` is met; ``status`` says so in one sentence. ``notes`` lists what
-    the identification fits found suspicious (:func:`sysid_core.fit.check_fit`), e.g. modes of a
-    stepped experiment outside its window.
-    """
-
-    device: str
-    bias: list[float]
-    split_hz: float | None
-    frequency_hz: float | None
-    iterations: int
-    experiments: int
-    converged: bool
-    verified: bool
-    status: str
-    goals: list[dict[str, Any]]
-    electrodes: list[str]
-    tuned: list[str]
-    history: list[IterationRecord] = field(default_factory=list)
-    notes: list[str] = field(default_factory=list)
-    out: str = ""
-
-    def as_dict(self) -> dict[str, Any]:
-        """JSON-friendly form."""
-        return {
-            "device": self.device,
-            "bias": self.bias,
-            "split_hz": self.split_hz,
-            "frequency_hz": self.frequency_hz,
-            "iterations": self.iterations,
-            "experiments": self.experiments,
-            "converged": self.converged,
-            "verified": self.verified,
-            "status": self.status,
-            "goals": self.goals,
-            "electrodes": self.electrodes,
-            "tuned": self.tuned,
-            "out": self.out,
-            "notes": self.notes,
-            "history": [r.as_dict() for r in self.history],
-        }
+__all__ = ["TuningRun"]
 
 
 class TuningRun:
@@ -242,49 +103,24 @@ class TuningRun:
         self.say = progress or (lambda _m: None)
         self.registry = registry or get_registry()
         self.plots = plots
-        reg = self.registry
-        m = config.model
-        # Every plugin is built now, so that a bad option fails before anything is measured;
-        # the fits and the criterion use these very objects.
-        self.structure: ModelStructure = reg.create("model structure", m.structure, order=m.order)
-        self.objective: Objective = reg.create("objective", m.objective, **m.objective_options)
-        self.solver: Solver = reg.create("solver", config.solver.name, **config.solver.options)
-        crit_opts: dict[str, Any] = {"solver": self.solver}
-        if config.tuning.target_hz is not None:
-            crit_opts["target_hz"] = config.tuning.target_hz
-        if config.tuning.tolerance_hz is not None:
-            crit_opts["tolerance_hz"] = config.tuning.tolerance_hz
-        self.criterion: TuningCriterion = reg.create(
-            "tuning criterion", config.tuning.criterion, **crit_opts
-        )
-        raw = (
-            device
-            if device is not None
-            else reg.create("device", config.device.name, **config.device.options)
-        )
-        self.device = GuardedDevice(raw, config.device.name, config.experiment.timeout_s)
-        self.electrodes = [str(e) for e in self.device.device.electrodes]
+        # Every component is built now, from this run's registry, so that a bad option fails
+        # before anything is measured; the fits and the criterion use these very objects.
+        parts = build_components(config, self.registry, device)
+        self.structure, self.objective = parts.structure, parts.objective
+        self.solver, self.criterion = parts.solver, parts.criterion
+        self.device = GuardedDevice(parts.device, config.device.name, config.experiment.timeout_s)
+        dev = parts.device
+        self.electrodes = [str(e) for e in dev.electrodes]
         start = config.tuning.start_bias
-        if start is None:
-            start = [0.0] * len(self.electrodes)
         self.space = BiasSpace(
             electrodes=self.electrodes,
             tuned=list(config.tuning.electrodes or self.electrodes),
-            start_bias=np.asarray(start, dtype=float),
-            limits=tuple(float(x) for x in self.device.device.bias_limits),  # type: ignore[arg-type]
-            structure_potential=float(self.device.device.structure_potential),
+            start_bias=np.asarray(start if start is not None else [0.0] * len(self.electrodes)),
+            limits=(float(dev.bias_limits[0]), float(dev.bias_limits[1])),
+            structure_potential=float(dev.structure_potential),
         )
-        check_bias(self.device.device, self.space.start_bias)
-        exp = config.experiment
-        self.plan = SweepPlan(
-            band_hz=tuple(exp.band_hz or self.device.device.band_hz),  # type: ignore[arg-type]
-            resolution_hz=exp.resolution_hz,
-            refine_span_hz=exp.refine_span_hz,
-            refine_resolution_hz=exp.refine_resolution_hz,
-            verify_span_hz=exp.verify_span_hz,
-            verify_resolution_hz=exp.verify_resolution_hz,
-            max_points=exp.max_points,
-        ).check(tuple(float(x) for x in self.device.device.band_hz))  # type: ignore[arg-type]
+        check_bias(dev, self.space.start_bias)
+        self.plan = SweepPlan.from_config(config.experiment, dev.band_hz)
         self._design(self.space.start_bias)  # the first design: limits and rank condition
         self.folder = RunFolder(self.out, config.digest())
         self.folder.check(resume)
@@ -532,7 +368,7 @@ class TuningRun:
             )
             converged = ver.verified and all(g.met for g in goals)
             if self.plots:
-                self._plot_iteration(it, ds, model, ver, new_bias, folder)
+                plot_iteration(it, ds, model, ver, new_bias[self.space.index], folder)
             bias = new_bias
             path.append(bias.tolist())
             history.append(
@@ -558,14 +394,12 @@ class TuningRun:
             summary.iterations, summary.experiments = it, self.measurements
             summary.converged, summary.verified = converged, ver.verified
             summary.goals = [g.as_dict() for g in goals]
-            summary.status = self._status(it, ver, goals, converged)
+            summary.status = status_line(it, ver, goals, converged)
             summary.history = history
             summary.notes = list(self.notes)
             write_json(self.out / "summary.json", summary.as_dict())
             self.say(f"iteration {it}: {ver.describe()} ({fit_time:.2f} s to identify)")
             if self.plots:
-                from sysid_core.report import plot_bias_path
-
                 plot_bias_path(
                     path,
                     [h.measured_split_hz for h in history],
@@ -583,43 +417,3 @@ class TuningRun:
             else:
                 center, split = None, 0.0
         return summary
-
-    def _status(self, it: int, ver: Verification, goals: list[Goal], converged: bool) -> str:
-        if converged:
-            return (
-                f"converged after {it} iteration(s): {ver.describe()}; goals met: "
-                + ", ".join(str(g) for g in goals)
-            )
-        if not ver.verified:
-            return f"NOT converged after {it} iteration(s): not verified, {ver.describe()}"
-        return (
-            f"NOT converged after {it} iteration(s): {ver.describe()}; goals not met: "
-            + ", ".join(str(g) for g in goals if not g.met)
-        )
-
-    def _plot_iteration(
-        self,
-        it: int,
-        ds: xr.Dataset,
-        model: FittedModel,
-        ver: Verification,
-        bias: np.ndarray,
-        folder: Path,
-    ) -> None:
-        from sysid_core.report import plot_fit, plot_verification
-
-        plot_fit(
-            ds,
-            model,
-            folder / "fit.png",
-            title=f"iteration {it}: {model.structure.name} model, gamma = {model.gamma:.3g}",
-        )
-        plot_verification(
-            ver.sweep.isel(electrode=[]),
-            model,
-            bias[self.space.index],
-            ver.model,
-            folder / "verify.png",
-            title=f"iteration {it} verification ({ver.status}): {ver.describe()}",
-        )
-

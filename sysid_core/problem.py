@@ -27,26 +27,21 @@ equation error at every data point is linear in it: :math:`E_i = G_i\\theta`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse as sp
 import xarray as xr
 
-from sysid_core.conic import SQRT2, svec_indices
-from sysid_core.data import measured_mask, validate
-
-if TYPE_CHECKING:
-    from sysid_core.interfaces import ModelStructure
-    from sysid_core.model import FittedModel
+from sysid_core.conic import SYM_BASIS
+from sysid_core.data import measured_mask, squared_potentials
+from sysid_core.structures import ModelStructure
+from sysid_core.validation import validate
 
 __all__ = [
     "EPS_DAMPING",
     "EPS_STIFFNESS",
     "FitProblem",
-    "ObjectiveResult",
     "ParameterLayout",
     "Scaling",
     "sigma_max_2x2",
@@ -57,17 +52,6 @@ __all__ = [
 EPS_DAMPING = 1e-8
 #: Strict inequality K(w_k) > 0 becomes K(w_k) ⪰ EPS_STIFFNESS·ω0²·I at every experiment's bias.
 EPS_STIFFNESS = 1e-6
-
-# Symmetric 2x2 basis: a symmetric matrix is x0*S0 + x1*S1 + x2*S2.
-SYM_BASIS = np.array([[[1.0, 0.0], [0.0, 0.0]], [[0.0, 1.0], [1.0, 0.0]], [[0.0, 0.0], [0.0, 1.0]]])
-# svec (lower, column-major, scaled) of x0*S0 + x1*S1 + x2*S2 is diag(1, sqrt2, 1) @ x.
-SVEC_SYM = np.diag([1.0, SQRT2, 1.0])
-
-
-def sym(v: np.ndarray) -> np.ndarray:
-    """The symmetric 2x2 matrix with entries ``[[v0, v1], [v1, v2]]``."""
-    return np.tensordot(np.asarray(v, dtype=float), SYM_BASIS, axes=1)
-
 
 def sigma_max_2x2(e: np.ndarray) -> np.ndarray:
     """Largest singular value of each complex 2x2 matrix in ``e`` (shape ``(..., 2, 2)``)."""
@@ -150,43 +134,6 @@ class Scaling:
         return cls(float(omega0), eps, nu_half, w_center, w_scale, psi_scale)
 
 
-@dataclass
-class ObjectiveResult:
-    """What an objective returns: the scaled solution and how it was reached.
-
-    Attributes
-    ----------
-    theta : ndarray
-        Scaled unknowns.
-    gamma : float
-        Optimal minimax value γ* (scaled units); for least squares, the largest residual.
-    max_residual : float
-        Largest σ̄(E) over all data points at ``theta`` (scaled units).
-    certified : bool
-        ``max_residual`` was checked on every data point against the objective's bound.
-    objective : str
-        Name of the objective.
-    solves : int
-        Number of conic solves.
-    working_set : int
-        Number of data points in the last program (all points for a full program).
-    iterations : int
-        Total solver iterations.
-    info : dict
-        Anything else worth reporting.
-    """
-
-    theta: np.ndarray
-    gamma: float
-    max_residual: float
-    certified: bool
-    objective: str
-    solves: int = 1
-    working_set: int = 0
-    iterations: int = 0
-    info: dict[str, object] = field(default_factory=dict)
-
-
 class FitProblem:
     """Data and structure, scaled, with the linear map from unknowns to equation errors.
 
@@ -212,7 +159,7 @@ class FitProblem:
         self.experiment = k_idx
         self.frequency_hz = f[q_idx]
         self.psi = np.asarray(dataset["response"].values)[k_idx, q_idx]
-        self.w = (self.structure_potential - self.bias) ** 2
+        self.w = squared_potentials(self.structure_potential, self.bias)
         self.omega = 2 * np.pi * self.frequency_hz
         self.scaling = Scaling.from_data(self.omega, self.w, self.psi)
         self.G = self._operator()
@@ -304,155 +251,3 @@ class FitProblem:
         theta[m], theta[~m] = fixed, free
         value = float(theta @ g @ theta)
         return value if np.isfinite(value) and value > 1e-300 else 1.0
-
-    # ----------------------------------------------------------------- conic pieces
-    def structural_constraints(self, n_x: int) -> tuple[sp.csr_matrix, np.ndarray, list[int]]:
-        """Rows ``(A, b)`` and PSD sizes for M ⪰ I, C ⪰ εI, K_p ⪯ 0 and K(w_k) ⪰ εI.
-
-        ``n_x`` is the number of variables (``theta`` first); all cones are 2x2 PSD.
-        """
-        lay = self.layout
-        eye_svec = np.array([1.0, 0.0, 1.0])
-        blocks: list[tuple[list[tuple[slice, np.ndarray]], np.ndarray]] = [
-            ([(lay.M, -SVEC_SYM)], -eye_svec),
-            ([(lay.C, -SVEC_SYM)], -EPS_DAMPING * eye_svec),
-        ]
-        blocks += [([(lay.K(p), SVEC_SYM)], np.zeros(3)) for p in range(lay.n_electrodes)]
-        eps = self.scaling.eps
-        for wk in self.scaled_w():
-            terms = [(lay.M, -SVEC_SYM), (lay.D, -eps * SVEC_SYM)]
-            terms += [(lay.K(p), -eps * wk[p] * SVEC_SYM) for p in range(lay.n_electrodes)]
-            blocks.append((terms, -EPS_STIFFNESS * eye_svec))
-        a = np.zeros((3 * len(blocks), n_x))
-        b = np.zeros(3 * len(blocks))
-        for i, (terms, off) in enumerate(blocks):
-            for sl, mat in terms:
-                a[3 * i : 3 * i + 3, sl] = mat
-            b[3 * i : 3 * i + 3] = off
-        return sp.csr_matrix(a), b, [2] * len(blocks)
-
-    #: Extra free variables per point in :meth:`minimax_rows` (the anti-Hermitian slack).
-    SLACK_PER_POINT = 20
-
-    def minimax_rows(
-        self,
-        points: np.ndarray,
-        n_x: int,
-        gamma_col: int,
-        slack_col: int,
-    ) -> sp.csr_matrix:
-        """Rows of the LMIs σ̄(E_i) ≤ γ for the given points, as 8x8 real PSD cones.
-
-        σ̄(E) ≤ γ iff the Hermitian ``H = [[γI, E^H], [E, γI]] = A + jB ⪰ 0``, iff its real
-        embedding ``X = [[A, -B], [B, A]] ⪰ 0`` (rows ordered Re v, Im v). ``X`` commutes with
-        the complex structure ``J = [[0, -I], [I, 0]]``, and the dual of such a cone is degenerate
-        in the 20 directions that anticommute with ``J``: interior-point solvers then stall
-        (Clarabel ends "AlmostSolved" on noisy data). The cone is therefore written
-        ``X + N ⪰ 0`` with a free ``N = [[Cn, Dn], [Dn, -Cn]]`` (``Cn``, ``Dn`` symmetric 4x4),
-        which is equivalent (average with ``J^T (X + N) J = X - N``) and removes the degeneracy.
-        The ``N`` of point ``i`` takes columns ``slack_col + 20 i ...``; ``b`` of these rows is 0.
-        """
-        points = np.asarray(points, dtype=np.int64)
-        k, n = points.size, self.layout.n
-        idx = svec_indices(8)
-        # Entries of X driven by E: (row, col, G-row, sign)
-        spec: list[tuple[int, int, int, float]] = []
-        for a in (0, 1):
-            for bb in (0, 1):
-                spec.append((2 + a, bb, 2 * a + bb, 1.0))  # A: Re E
-                spec.append((6 + a, 4 + bb, 2 * a + bb, 1.0))  # A again
-                spec.append((6 + a, bb, 4 + 2 * a + bb, 1.0))  # B[2+a, b] = Im E[a, b]
-                spec.append((4 + a, 2 + bb, 4 + 2 * bb + a, -1.0))  # B[a, 2+b] = -Im E[b, a]
-        rows_e = np.array([idx[r, c] for r, c, _, _ in spec])
-        grow = [g for _, _, g, _ in spec]
-        sign = np.array([sg for _, _, _, sg in spec])
-        coef = self.G[points][:, grow, :] * (-SQRT2 * sign)[None, :, None]
-        base = (np.arange(k) * 36)[:, None]
-        r_e = np.broadcast_to((base + rows_e)[:, :, None], coef.shape)
-        c_e = np.broadcast_to(np.arange(n)[None, None, :], coef.shape)
-        diag_rows = base + np.array([idx[d, d] for d in range(8)])[None, :]
-        # Slack N: (row, local column, coefficient in A)
-        slack: list[tuple[int, int, float]] = []
-        j = 0
-        for r in range(4):
-            for c in range(r + 1):
-                sc = 1.0 if r == c else SQRT2
-                slack += [(idx[r, c], j, -sc), (idx[4 + r, 4 + c], j, sc)]
-                j += 1
-        for r in range(4):
-            for c in range(r + 1):
-                slack.append((idx[4 + r, c], j, -SQRT2))
-                if r != c:
-                    slack.append((idx[4 + c, r], j, -SQRT2))
-                j += 1
-        s_rows = base + np.array([t[0] for t in slack])[None, :]
-        s_cols = (
-            slack_col
-            + (np.arange(k) * self.SLACK_PER_POINT)[:, None]
-            + np.array([t[1] for t in slack])[None, :]
-        )
-        s_vals = np.broadcast_to(np.array([t[2] for t in slack])[None, :], s_rows.shape)
-        rows = np.concatenate([r_e.ravel(), diag_rows.ravel(), s_rows.ravel()])
-        cols = np.concatenate([c_e.ravel(), np.full(diag_rows.size, gamma_col), s_cols.ravel()])
-        vals = np.concatenate([coef.ravel(), np.full(diag_rows.size, -1.0), s_vals.ravel()])
-        keep = vals != 0
-        return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(36 * k, n_x))
-
-    def to_model(self, result: ObjectiveResult, **meta: object) -> FittedModel:
-        """Map a scaled solution back to physical units as a :class:`FittedModel`.
-
-        The model's channel names (``outputs``, ``inputs``) are the data set's ``output`` and
-        ``input`` coordinates.
-        """
-        from sysid_core.model import DEFAULT_INPUTS, DEFAULT_OUTPUTS, FittedModel
-
-        coords = self.dataset.coords
-        outputs = coords["output"].values if "output" in coords else DEFAULT_OUTPUTS
-        inputs = coords["input"].values if "input" in coords else DEFAULT_INPUTS
-        s, lay, th = self.scaling, self.layout, result.theta
-        m = sym(th[lay.M])
-        c = s.omega0 * s.eps * sym(th[lay.C])
-        kp = np.array(
-            [
-                s.omega0**2 * s.eps * sym(th[lay.K(p)]) / s.w_scale[p]
-                for p in range(lay.n_electrodes)
-            ]
-        ).reshape(-1, 2, 2)
-        k_center = s.omega0**2 * (m + s.eps * sym(th[lay.D]))
-        k0 = k_center - np.tensordot(s.w_center, kp, axes=1) if len(kp) else k_center
-        poly = np.array(
-            [
-                s.psi_scale * (th[lay.poly(d)][:4] + 1j * th[lay.poly(d)][4:]).reshape(2, 2)
-                for d in range(lay.order + 1)
-            ]
-        )
-        return FittedModel(
-            structure=self.structure,
-            M=m,
-            C=c,
-            K0=k0,
-            Kp=kp,
-            poly=poly,
-            omega_center=s.omega0,
-            omega_half=s.nu_half,
-            electrodes=self.electrodes,
-            structure_potential=self.structure_potential,
-            gamma=result.gamma * s.psi_scale,
-            max_residual=result.max_residual * s.psi_scale,
-            outputs=[str(name) for name in outputs],
-            inputs=[str(name) for name in inputs],
-            meta={
-                "objective": result.objective,
-                "certified": result.certified,
-                "solves": result.solves,
-                "working_set": result.working_set,
-                "solver_iterations": result.iterations,
-                "n_points": self.n_points,
-                "n_experiments": self.n_experiments,
-                "n_parameters": self.n_parameters,
-                "device": str(self.dataset.attrs.get("device", "unknown")),
-                "band_hz": [float(self.frequency_hz.min()), float(self.frequency_hz.max())],
-                "fit_bias": self.bias.tolist(),
-                **meta,
-            },
-        )

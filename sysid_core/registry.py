@@ -14,12 +14,20 @@ import os
 import warnings
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 import pluggy
 
 from sysid_core import hookspec
+from sysid_core.conic import Solver
 from sysid_core.errors import PluginError, PluginNotFoundError
+from sysid_core.measuring import Device, check_device
+from sysid_core.objective import Objective
+from sysid_core.options import build
+from sysid_core.structures import ModelStructure
+from sysid_core.tuning import TuningCriterion
+
+T = TypeVar("T")
 
 __all__ = [
     "Component",
@@ -177,8 +185,43 @@ class Registry:
         return providers[0]
 
     def create(self, kind: str, name: str, /, **options: Any) -> Any:
-        """Look up ``name`` of ``kind`` and call its factory with ``options``."""
-        return self.get(kind, name).factory(**options)
+        """Look up ``name`` of ``kind``, check ``options`` and call its factory.
+
+        The options are checked against the factory's keyword parameters
+        (:func:`sysid_core.options.check_options`), the same way for every kind. Prefer the
+        typed accessors (:meth:`device`, :meth:`structure`, :meth:`objective`, :meth:`solver`,
+        :meth:`criterion`), which also check what the plugin returns.
+        """
+        return build(kind, name, self.get(kind, name).factory, options)
+
+    def _typed(self, kind: str, name: str, cls: type[T], options: dict[str, Any]) -> T:
+        made = self.create(kind, name, **options)
+        if not isinstance(made, cls):
+            raise PluginError(
+                f"{kind} {name!r} ({self.get(kind, name).plugin}) returned a "
+                f"{type(made).__name__}, not a {cls.__name__}"
+            )
+        return made
+
+    def device(self, name: str, /, **options: Any) -> Device:
+        """The device ``name`` built with ``options`` (its protocol attributes checked)."""
+        return check_device(self.create("device", name, **options), name)
+
+    def structure(self, name: str, /, **options: Any) -> ModelStructure:
+        """The model structure ``name`` (options: ``order`` and the structure's own)."""
+        return self._typed("model structure", name, ModelStructure, options)
+
+    def objective(self, name: str, /, **options: Any) -> Objective:
+        """The fit objective ``name`` built with ``options``."""
+        return self._typed("objective", name, Objective, options)
+
+    def solver(self, name: str, /, **options: Any) -> Solver:
+        """The solver backend ``name`` built with ``options``."""
+        return self._typed("solver", name, Solver, options)
+
+    def criterion(self, name: str, /, **options: Any) -> TuningCriterion:
+        """The tuning criterion ``name`` built with ``options`` (``solver=``, ``target_hz=``...)."""
+        return self._typed("tuning criterion", name, TuningCriterion, options)
 
     @staticmethod
     def _check_kind(kind: str) -> None:

@@ -1,9 +1,13 @@
-"""Plots of a tuning run (PNG, matplotlib), in the style of the paper's Figs. 4-6.
+"""Plots of a tuning run (matplotlib), in the style of the paper's Figs. 4-6.
 
-* :func:`plot_fit`: Bode magnitude and phase of the data and the model, per experiment.
-* :func:`plot_verification`: the verification sweep, the identified model's prediction at the
-  applied bias and the single-bias fit that measures the split.
-* :func:`plot_bias_path`: the bias across iterations and the measured split.
+Each ``*_figure`` function returns a :class:`matplotlib.figure.Figure` (for notebooks and
+reports); :func:`save_figure` writes one as PNG, atomically (the one PNG writer of the toolkit).
+
+* :func:`fit_figure`: Bode magnitude and phase of the data and the model, per experiment.
+* :func:`verification_figure`: the verification sweep, the identified model's prediction at
+  the applied bias and the single-bias fit that measures the split.
+* :func:`bias_path_figure`: every electrode's bias across iterations and the measured split.
+* :func:`plot_iteration`, :func:`plot_bias_path`: what ``sysid tune`` writes.
 """
 
 from __future__ import annotations
@@ -26,8 +30,16 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
     from sysid_core.model import FittedModel
+    from sysid_core.run_summary import Verification
 
-__all__ = ["plot_bias_path", "plot_fit", "plot_verification"]
+__all__ = [
+    "bias_path_figure",
+    "fit_figure",
+    "plot_bias_path",
+    "plot_iteration",
+    "save_figure",
+    "verification_figure",
+]
 
 _MARKERS = "odsv^<>p*h"
 
@@ -40,7 +52,8 @@ def _figure(rows: int, cols: int, size: tuple[float, float]) -> Figure:
     return fig
 
 
-def _save(fig: Figure, path: str | os.PathLike[str]) -> Path:
+def save_figure(fig: Figure, path: str | os.PathLike[str]) -> Path:
+    """Write ``fig`` as a PNG at ``path`` (atomically: the old file or the complete new one)."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
     data = buf.getvalue()
@@ -61,9 +74,7 @@ def _channels(ds: xr.Dataset) -> list[tuple[int, int, str]]:
     ]
 
 
-def plot_fit(
-    ds: xr.Dataset, model: FittedModel, path: str | os.PathLike[str], title: str = ""
-) -> Path:
+def fit_figure(ds: xr.Dataset, model: FittedModel, title: str = "") -> Figure:
     """Data (markers) and model (lines) per experiment: magnitude (dB) and phase (deg)."""
     fig = _figure(4, 2, (11, 11))
     axes = fig.axes
@@ -105,17 +116,16 @@ def plot_fit(
     _plain_frequency_axes(axes)
     axes[0].legend(fontsize=7, title="bias", title_fontsize=7)
     fig.suptitle(title or "identified model (lines) and data (markers)")
-    return _save(fig, path)
+    return fig
 
 
-def plot_verification(
+def verification_figure(
     sweep: xr.Dataset,
     predicted: FittedModel,
     bias: Sequence[float],
     fitted: FittedModel,
-    path: str | os.PathLike[str],
     title: str = "",
-) -> Path:
+) -> Figure:
     """Verification sweep (markers), the prediction at ``bias`` (dashed) and its fit (solid)."""
     fig = _figure(4, 2, (11, 10))
     axes = fig.axes
@@ -144,17 +154,16 @@ def plot_verification(
         f"split {rep.split_hz * 1e3:.1f} mHz"
     )
     fig.suptitle(textwrap.fill(text, 110))
-    return _save(fig, path)
+    return fig
 
 
-def plot_bias_path(
+def bias_path_figure(
     biases: Sequence[Sequence[float]],
     splits_hz: Sequence[float | None],
     electrodes: Sequence[str],
-    path: str | os.PathLike[str],
     limits: tuple[float, float] | None = None,
     acceptance_hz: float | None = None,
-) -> Path:
+) -> Figure:
     """Every electrode's bias after each iteration, and the split each verification measured.
 
     ``biases[0]`` is the start bias, ``biases[k]`` the bias of iteration ``k``. A split of
@@ -192,4 +201,40 @@ def plot_bias_path(
     ax_s.set_xticks(it)
     ax_s.set_title("split after each iteration")
     ax_s.legend(fontsize=8)
-    return _save(fig, path)
+    return fig
+
+
+def plot_bias_path(
+    biases: Sequence[Sequence[float]],
+    splits_hz: Sequence[float | None],
+    electrodes: Sequence[str],
+    path: str | os.PathLike[str],
+    limits: tuple[float, float] | None = None,
+    acceptance_hz: float | None = None,
+) -> Path:
+    """:func:`bias_path_figure` written to ``path``."""
+    return save_figure(bias_path_figure(biases, splits_hz, electrodes, limits, acceptance_hz), path)
+
+
+def plot_iteration(
+    it: int,
+    ds: xr.Dataset,
+    model: FittedModel,
+    ver: Verification,
+    tuned_bias: Sequence[float],
+    folder: str | os.PathLike[str],
+) -> None:
+    """An iteration's ``fit.png`` and ``verify.png`` in ``folder``."""
+    folder = Path(folder)
+    title = f"iteration {it}: {model.structure.name} model, gamma = {model.gamma:.3g}"
+    save_figure(fit_figure(ds, model, title), folder / "fit.png")
+    save_figure(
+        verification_figure(
+            ver.sweep.isel(electrode=[]),
+            model,
+            tuned_bias,
+            ver.model,
+            f"iteration {it} verification ({ver.status}): {ver.describe()}",
+        ),
+        folder / "verify.png",
+    )

@@ -15,9 +15,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg
 
-__all__ = ["GyroTruth", "LowPass", "modal_analysis"]
+from sysid_core.data import squared_potentials
+from sysid_core.modal import modal_analysis
+from sysid_core.tuning import degenerate_bias
+
+__all__ = ["GyroTruth", "LowPass"]
 
 
 @dataclass(frozen=True)
@@ -34,34 +37,6 @@ class LowPass:
         for i in range(2):
             out[:, i, i] = self.gain[i] / (1 + 1j * omega / (2 * np.pi * self.corner_hz[i]))
         return out
-
-
-def modal_analysis(
-    m: np.ndarray, c: np.ndarray, k: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Modal frequencies of ``M x'' + C x' + K x``.
-
-    Returns
-    -------
-    undamped_hz : ndarray
-        ``sqrt(lambda) / 2 pi`` for the generalized eigenvalues of ``(K, M)``, ascending.
-    damped_hz : ndarray
-        ``|Im s| / 2 pi`` of the state matrix's eigenvalues (one per mode), ascending.
-    q : ndarray
-        Quality factor ``|s| / (2 |Re s|)`` of each damped mode, in the order of ``damped_hz``.
-    """
-    lam = scipy.linalg.eigh(k, m, eigvals_only=True)
-    undamped = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
-    minv = np.linalg.inv(m)
-    a = np.block([[np.zeros((2, 2)), np.eye(2)], [-minv @ k, -minv @ c]])
-    s = np.linalg.eigvals(a)
-    s = s[s.imag > 0] if np.count_nonzero(s.imag > 0) == 2 else s[np.argsort(-s.imag)[:2]]
-    order = np.argsort(s.imag)
-    s = s[order]
-    damped = np.abs(s.imag) / (2 * np.pi)
-    with np.errstate(divide="ignore"):
-        q = np.abs(s) / (2 * np.abs(s.real))
-    return np.sort(undamped), damped, q
 
 
 @dataclass
@@ -115,7 +90,7 @@ class GyroTruth:
 
     def squared_potentials(self, bias: Sequence[float]) -> np.ndarray:
         """``w_p = (v_gyro - dv_p)**2``."""
-        return (self.structure_potential - np.asarray(bias, dtype=float)) ** 2
+        return squared_potentials(self.structure_potential, bias)
 
     def stiffness(self, bias: Sequence[float]) -> np.ndarray:
         """``K0 + sum_p K_p v_p^2`` at ``bias`` (volts relative to ground)."""
@@ -146,21 +121,9 @@ class GyroTruth:
         f = self.modal_frequencies_hz(bias)
         return float(f[1] - f[0])
 
-    def degenerate_bias(self, electrodes: Sequence[int] = (0, 1)) -> np.ndarray:
+    def degenerate_bias(self, electrodes: tuple[int, int] = (0, 1)) -> np.ndarray:
         """Biases on two electrodes (others at 0 V) that make ``K(w) = lambda M`` exactly.
 
-        Solves the linear system in ``(w_a, w_b, lambda)`` and takes the root
-        ``dv = v_gyro - sqrt(w)`` (valid when ``v_gyro`` exceeds the biases).
+        See :func:`sysid_core.tuning.degenerate_bias`.
         """
-        a, b = electrodes
-        w_rest = self.squared_potentials(np.zeros(self.n_electrodes))
-        base = self.K0 + sum(
-            w_rest[p] * self.Kp[p] for p in range(self.n_electrodes) if p not in (a, b)
-        )
-        from sysid_core.tuning import degenerate_w
-
-        wa, wb, _ = degenerate_w(base, self.Kp[a], self.Kp[b], self.M)
-        bias = np.zeros(self.n_electrodes)
-        bias[a] = self.structure_potential - np.sqrt(wa)
-        bias[b] = self.structure_potential - np.sqrt(wb)
-        return bias
+        return degenerate_bias(self.K0, self.Kp, self.M, self.structure_potential, electrodes)

@@ -2,20 +2,20 @@
 
 from __future__ import annotations
 
-import io
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
-from sysid_core.io import atomic_write
+from sysid_core.measuring import SimulatedDevice
+from sysid_core.report import save_figure
 
 __all__ = ["plot_study", "true_split_map"]
 
 
 def true_split_map(
-    device: Any,
+    device: SimulatedDevice,
     base_bias: np.ndarray,
     tuned_index: list[int],
     center: np.ndarray,
@@ -47,7 +47,7 @@ def plot_study(
     """One PNG per objective, model and iteration: predicted biases over true-split contours."""
     from matplotlib.figure import Figure
 
-    if len(tuned_index) < 2 or not hasattr(device, "true_modal_frequencies_hz"):
+    if len(tuned_index) < 2 or not isinstance(device, SimulatedDevice):
         return []
     bias = ds["predicted_bias"].values[..., tuned_index[:2]]
     finite = bias[np.isfinite(bias).all(axis=-1)]
@@ -105,10 +105,6 @@ def plot_study(
                     + (f"; {out_of_view} outside the view" if out_of_view else ""),
                     fontsize=8,
                 )
-                buf = io.BytesIO()
-                fig.savefig(buf, format="png", dpi=110)
-                data = buf.getvalue()
                 path = out / f"fig-{obj}-{model}-iter{int(it)}.png"
-                atomic_write(path, lambda tmp, d=data: tmp.write_bytes(d))
-                paths.append(path)
+                paths.append(save_figure(fig, path))
     return paths

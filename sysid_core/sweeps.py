@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sysid_core.config import ExperimentConfig
 from sysid_core.errors import ConfigError
 
 __all__ = ["MIN_POINTS", "SweepPlan", "design_experiments", "grid"]
@@ -82,6 +83,20 @@ class SweepPlan:
     verify_span_hz: float
     verify_resolution_hz: float
     max_points: int
+
+    @classmethod
+    def from_config(cls, exp: ExperimentConfig, device_band_hz: Sequence[float]) -> SweepPlan:
+        """The plan of an ``[experiment]`` table for a device with ``band_hz``, checked."""
+        band = (float(device_band_hz[0]), float(device_band_hz[1]))
+        return cls(
+            band_hz=tuple(exp.band_hz) if exp.band_hz is not None else band,
+            resolution_hz=exp.resolution_hz,
+            refine_span_hz=exp.refine_span_hz,
+            refine_resolution_hz=exp.refine_resolution_hz,
+            verify_span_hz=exp.verify_span_hz,
+            verify_resolution_hz=exp.verify_resolution_hz,
+            max_points=exp.max_points,
+        ).check(band)
 
     def check(self, device_band_hz: tuple[float, float]) -> SweepPlan:
         """Check the plan against the device's band and the point limits; return it.

@@ -42,7 +42,8 @@ What is checked
 * optional (:attr:`DeviceContract.checks_bias_limits`): the device itself refuses a bias outside
   ``bias_limits`` or with the wrong number of values, raising
   :class:`~sysid_core.errors.BiasLimitError` (the core checks first; this is defence in depth);
-* optional (:meth:`DeviceContract.device_factory`): the factory rejects an unknown option with a
+* optional (:meth:`DeviceContract.device_factory`): building the factory as the registry does
+  (:func:`sysid_core.options.build`) rejects an unknown option with a
   :class:`~sysid_core.errors.ConfigError` naming it.
 
 These tests measure, so on real hardware they drive it. The reference bias is inside the limits
@@ -61,8 +62,8 @@ import pytest
 import xarray as xr
 
 from sysid_core.errors import BiasLimitError, ConfigError
-from sysid_core.interfaces import Device
-from sysid_core.measuring import check_answer, check_device
+from sysid_core.measuring import Device, check_answer, check_device
+from sysid_core.options import build
 
 __all__ = ["DeviceContract"]
 
@@ -269,4 +270,4 @@ class DeviceContract:
         if factory is None:
             pytest.skip("device_factory() returns None: option handling not tested")
         with pytest.raises(ConfigError, match="no_such_option_for_the_contract"):
-            factory(no_such_option_for_the_contract=1)
+            build("device", "under test", factory, {"no_such_option_for_the_contract": 1})

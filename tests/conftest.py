@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from pathlib import Path
+
 import numpy as np
 import pytest
+from installing import install, remove_all
 
 from sysid_core.data import make_dataset
 from sysid_core.simulation import GyroTruth, LowPass
@@ -82,3 +86,23 @@ def in_class_truth() -> GyroTruth:
 def realistic_truth() -> GyroTruth:
     """Out of class: output low-passes with 1 degree differential phase at 4430 Hz."""
     return cloverleaf_truth(h_out=LowPass((20000.0, 18470.0), (1.0, 0.97)))
+
+
+# ------------------------------------------------------------------ third-party plugin packages
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="session")
+def example_plugin() -> Iterator[Path]:
+    """The docs' example device package, installed for this session only (tests/installing.py)."""
+    yield install(ROOT / "docs" / "examples" / "sysid-example-device", "sysid-example-device")
+
+
+@pytest.fixture(scope="session")
+def faulty_plugin() -> Iterator[Path]:
+    """The fault-injecting device package, installed for this session only."""
+    yield install(ROOT / "tests" / "plugins" / "sysid-faulty-device", "sysid-faulty-device")
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    remove_all()

@@ -1,22 +1,28 @@
-"""Install a test-only or example plugin package the way a third party's would be installed.
+"""Install the test-only and example plugin packages the way a third party's are, but never into
+the environment that runs the tests.
 
-The package is pip-installed (a regular, non-editable install without dependencies) into the
-running environment if it is not installed yet: it lands in site-packages, which is already on
-``sys.path``, so this process and every later test can import it (an editable install would
-work through a .pth file that only new processes read, and this process would then warn that
-the plugin fails to load).
+:func:`install` pip-installs a package (no dependencies) into a temporary ``--target`` folder,
+once per test session, and puts that folder first on ``sys.path`` (this process) and on
+``PYTHONPATH`` (subprocesses, :func:`environment`). The package's entry points are then found
+like any installed plugin's; the folder is removed at the end of the session, and the
+environment's own packages are never touched.
 """
 
 from __future__ import annotations
 
+import importlib
 import importlib.metadata
 import importlib.util
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
+
+__all__ = ["environment", "install", "remove_all"]
 
 OFFLINE_HINTS = (
     "No matching distribution",
@@ -26,14 +32,8 @@ OFFLINE_HINTS = (
     "Temporary failure in name resolution",
 )
 
-
-def installed(distribution: str) -> bool:
-    """Whether ``distribution`` is installed in this environment."""
-    try:
-        importlib.metadata.distribution(distribution)
-    except importlib.metadata.PackageNotFoundError:
-        return False
-    return True
+_ROOT: Path | None = None
+_DONE: dict[str, Path] = {}
 
 
 def _can_build_without_isolation() -> bool:
@@ -46,22 +46,29 @@ def _can_build_without_isolation() -> bool:
     return version >= (70, 1) or importlib.util.find_spec("wheel") is not None
 
 
-def install(path: Path, distribution: str) -> None:
-    """pip-install the package at ``path`` unless ``distribution`` is installed already.
+def install(path: Path, distribution: str) -> Path:
+    """Install the package at ``path`` into this session's plugin folder; return the folder.
 
-    Skips the calling test when pip is missing or no package index is reachable; fails it when
-    pip fails otherwise. Resets the process-wide plugin registry so that it sees the package.
+    Skips the calling test when pip is missing or no package index is reachable (an isolated
+    build needs setuptools from the index); fails it when pip fails otherwise.
     """
-    if installed(distribution):
-        return
+    global _ROOT
+    if distribution in _DONE:
+        return _DONE[distribution]
     if importlib.util.find_spec("pip") is None:
         pytest.skip(f"pip is not available to install {path}")
+    if _ROOT is None:
+        _ROOT = Path(tempfile.mkdtemp(prefix="sysid-test-plugins-"))
+        sys.path.insert(0, str(_ROOT))
+    build = Path(tempfile.mkdtemp(prefix="sysid-build-"))
+    shutil.copytree(path, build / "src", ignore=shutil.ignore_patterns("build", "*.egg-info"))
     command = [sys.executable, "-m", "pip", "install", "--quiet", "--disable-pip-version-check"]
-    command += ["--no-deps"]
+    command += ["--no-deps", "--target", str(_ROOT), "--upgrade"]
     if _can_build_without_isolation():
         command += ["--no-build-isolation"]
-    command += [str(path)]
+    command += [str(build / "src")]
     done = subprocess.run(command, capture_output=True, text=True, timeout=600, check=False)
+    shutil.rmtree(build, ignore_errors=True)
     if done.returncode != 0:
         tail = "\n".join((done.stdout + done.stderr).strip().splitlines()[-15:])
         if any(hint in tail for hint in OFFLINE_HINTS):
@@ -70,12 +77,33 @@ def install(path: Path, distribution: str) -> None:
     importlib.invalidate_caches()
     from sysid_core.registry import reset_registry
 
-    reset_registry()  # the next lookup sees the new entry point
+    reset_registry()  # the next lookup sees the new entry points
+    _DONE[distribution] = _ROOT
+    return _ROOT
+
+
+def remove_all() -> None:
+    """Take the session's plugin folder off ``sys.path`` and delete it."""
+    global _ROOT
+    if _ROOT is not None:
+        if str(_ROOT) in sys.path:
+            sys.path.remove(str(_ROOT))
+        shutil.rmtree(_ROOT, ignore_errors=True)
+        _ROOT = None
+        _DONE.clear()
+        importlib.invalidate_caches()
+        from sysid_core.registry import reset_registry
+
+        reset_registry()
 
 
 def environment() -> dict[str, str]:
-    """The environment for a subprocess that must load every installed plugin."""
+    """The environment for a subprocess that must load every plugin, the test ones included."""
     env = dict(os.environ)
     env.pop("SYSID_DISABLE_PLUGIN_AUTOLOAD", None)
     env.pop("SYSID_DEBUG", None)
+    if _ROOT is not None:
+        env["PYTHONPATH"] = os.pathsep.join(
+            [str(_ROOT), *filter(None, [env.get("PYTHONPATH")])]
+        )
     return env

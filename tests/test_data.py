@@ -11,15 +11,8 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from sysid_core import errors
-from sysid_core.data import (
-    check_rank_condition,
-    concat_experiments,
-    load_dataset,
-    make_dataset,
-    save_dataset,
-    to_frd,
-    validate,
-)
+from sysid_core.data import concat_experiments, load_dataset, make_dataset, save_dataset, to_frd
+from sysid_core.validation import check_rank_condition, validate
 
 
 @pytest.fixture

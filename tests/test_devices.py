@@ -10,6 +10,7 @@ from sysid_simgyro import SimulatedGyro
 from sysid_simgyro.physics import differential_phase_deg
 
 from sysid_core.errors import BiasLimitError, ConfigError
+from sysid_core.options import build
 from sysid_core.registry import Registry
 from sysid_core.tuning import degenerate_w
 
@@ -238,8 +239,8 @@ def test_truth_uses_the_applied_bias() -> None:
 # ----------------------------------------------------------- options and safety
 @pytest.mark.parametrize("factory", [CloverleafGyro, PostResonatorGyro])
 def test_unknown_option_is_a_config_error_naming_it(factory: type[SimulatedGyro]) -> None:
-    with pytest.raises(ConfigError, match="'noize'"):
-        factory(noize=1e-3)
+    with pytest.raises(ConfigError, match="'noize'"):  # built as a [device] table is
+        build("device", factory.name, factory, {"noize": 1e-3})
 
 
 @pytest.mark.parametrize(

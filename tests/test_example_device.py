@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from installing import environment, install
+from installing import environment
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "docs" / "examples" / "sysid-example-device"
 DISTRIBUTION = "sysid-example-device"
@@ -22,8 +22,8 @@ def _environment() -> dict[str, str]:
 
 
 @pytest.fixture(scope="module")
-def example_installed() -> None:
-    install(EXAMPLE, DISTRIBUTION)
+def example_installed(example_plugin: Path) -> None:
+    """The example package, installed for this session only (see conftest.py)."""
 
 
 def _run(code: str) -> str:

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import pytest
 import xarray as xr
-from installing import environment, install
+from installing import environment
 
 from sysid_core.cli import main
 from sysid_core.config import parse_config
@@ -39,18 +39,16 @@ from sysid_core.errors import (
 from sysid_core.fit import fit
 from sysid_core.interfaces import Goal
 from sysid_core.pipeline import TuningRun
-from sysid_core.registry import get_registry, reset_registry
+from sysid_core.registry import get_registry
 
-FAULTY = Path(__file__).parent / "plugins" / "sysid-faulty-device"
 EXAMPLE_DATA = Path(__file__).resolve().parents[1] / "examples" / "cloverleaf-3exp.nc"
 FAST = {"resolution_hz": 1.0, "verify_resolution_hz": 0.02}
 TUNE = {"criterion": "degenerate", "electrodes": ["B1", "B2"], "start_bias": [0.0, 0.0, 0.0]}
 
 
 @pytest.fixture(scope="module", autouse=True)
-def faulty_installed() -> None:
-    install(FAULTY, "sysid-faulty-device")
-    reset_registry()
+def _faulty(faulty_plugin: Path) -> None:
+    """Every test here may use the faulty-gyro device."""
 
 
 def toml(path: Path, tables: dict[str, dict[str, Any]]) -> Path:
@@ -226,8 +224,9 @@ def test_target_counts_only_with_its_frequency_error(tmp_path: Path) -> None:
 
 
 def _target_goals(freqs: list[float], target: float, tolerance: float) -> list[Goal]:
-    crit = get_registry().create("tuning criterion", "target", target_hz=target,
-                                 tolerance_hz=tolerance)
+    crit = get_registry().criterion(
+        "target", target_hz=target, tolerance_hz=tolerance, solver=get_registry().solver("clarabel")
+    )
     return crit.goals(np.array(freqs), acceptance_hz=0.01)
 
 
@@ -393,7 +392,10 @@ def test_files_keep_the_users_umask(tmp_path: Path, umask: int) -> None:
         ({"experiment": {"band_hz": [4400.0, 4400.2], "resolution_hz": 0.5}}, "at least 11"),
         ({"solver": {"name": "clarabel", "max_iter": "x"}}, "option 'max_iter' of solver"),
         ({"solver": {"name": "scs", "max_iters": 2.5}}, "option 'max_iters' of solver 'scs'"),
-        ({"model": {"objective_options": {"tie_tol": "x"}}}, "option 'tie_tol' of objective"),
+        ({"objective": {"tie_tol": "x"}}, "option 'tie_tol' of objective"),
+        ({"model": {"objective": "minimax"}}, "[model] objective has moved to [objective] name"),
+        ({"tuning": {"options": {"bias_tol": -1.0}, "criterion": "min-max-bias"}},
+         "option 'bias_tol' of tuning criterion 'min-max-bias' must be a finite number > 0"),
         ({"device": {"structure_potential": "abc"}}, "'structure_potential'"),
         ({"device": {"broken": "electrodes"}}, "'electrodes' must be a non-empty"),
         ({"device": {"broken": "limits"}}, "'bias_limits' must be two finite numbers"),

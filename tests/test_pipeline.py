@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import importlib.metadata
 import json
 import re
 import subprocess
@@ -23,6 +22,7 @@ import pytest
 import xarray as xr
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from installing import environment
 from sysid_cloverleaf import CloverleafGyro
 from sysid_simgyro import SimulatedGyro
 
@@ -40,8 +40,9 @@ from sysid_core.errors import (
 )
 from sysid_core.hookspec import hookimpl
 from sysid_core.measuring import check_bias
-from sysid_core.pipeline import RunSummary, TuningRun
+from sysid_core.pipeline import TuningRun
 from sysid_core.registry import Registry
+from sysid_core.run_summary import RunSummary
 from sysid_core.sweeps import design_experiments
 
 REDUCED = {"resolution_hz": 1.0, "verify_resolution_hz": 0.02}
@@ -526,7 +527,7 @@ def test_config_value_errors_before_measuring(tmp_path: Path) -> None:
     with pytest.raises(PluginNotFoundError, match="model structure named 'acts'"):
         attempt(model={"structure": "acts"})
     with pytest.raises(ConfigError, match="'bogus' for objective 'minimax'"):
-        attempt(model={"objective_options": {"bogus": 1}})
+        attempt(objective={"bogus": 1})
     with pytest.raises(ConfigError, match="repeat"):
         attempt(tuning={"electrodes": ["B1", "B1"]})
     with pytest.raises(ConfigError, match="bias_step"):
@@ -601,34 +602,27 @@ def test_cli_human_output(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
 
 
 # ------------------------------------------------------------ a third party's device
-def test_example_device_tunes_end_to_end(tmp_path: Path) -> None:
-    try:
-        importlib.metadata.distribution("sysid-example-device")
-    except importlib.metadata.PackageNotFoundError:
-        pytest.skip(
-            "the example device package (docs/examples/sysid-example-device, device "
-            "'example-gyro') is not installed; tests/test_example_device.py installs it"
-        )
+def test_example_device_tunes_end_to_end(tmp_path: Path, example_plugin: Path) -> None:
     cfg = write_toml(
         tmp_path / "example.toml",
         {
             "device": {"name": "example-gyro", "seed": 5},
             # least squares: the minimax fit of this run's second iteration takes over a
             # minute (its tie-break retries 'AlmostSolved' 13 times), least squares 0.2 s
-            "model": {"objective": "least-squares"},
+            "objective": {"name": "least-squares"},
             "tuning": {"criterion": "degenerate", "start_bias": [0.0, 0.0]},
             "experiment": REDUCED,
         },
     )
-    # A new process: an editable install made during this session is seen only by new ones.
-    entry = "import sys; from sysid_core.cli import main; sys.exit(main(sys.argv[1:]))"
-    command = [sys.executable, "-c", entry, "tune", str(cfg)]
+    # A new process, as a user's: the plugin is found through its entry point.
+    command = [sys.executable, "-m", "sysid_core.cli", "tune", str(cfg)]
     done = subprocess.run(
         [*command, "--out", str(tmp_path / "o"), "--json", "--no-plots"],
         capture_output=True,
         text=True,
         timeout=120,
         check=False,
+        env=environment(),
     )
     assert done.returncode == 0, done.stderr
     result = json.loads(done.stdout.strip().splitlines()[-1])

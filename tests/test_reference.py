@@ -18,6 +18,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import PAPER_BIASES, cloverleaf_truth, simulate
+from reference import (
+    least_squares_reference,
+    minimax_reference,
+    reference_errors,
+    solve_reference,
+)
 from sysid_models.structures import ActStructure, SenStructure
 from sysid_objectives.least_squares import LeastSquares
 from sysid_objectives.minimax import Minimax
@@ -25,12 +31,6 @@ from sysid_solvers.clarabel_backend import ClarabelSolver
 
 from sysid_core.errors import SolverError
 from sysid_core.problem import FitProblem, sigma_max_2x2
-from sysid_core.reference import (
-    least_squares_reference,
-    minimax_reference,
-    reference_errors,
-    solve_reference,
-)
 from sysid_core.simulation import LowPass
 
 FREQS = np.linspace(4385.0, 4445.0, 11)

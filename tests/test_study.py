@@ -16,14 +16,15 @@ import numpy as np
 import pytest
 
 from sysid_core import errors
-from sysid_core.study import load_study_config, run_study
+from sysid_core.study import failure_message, load_study_config, plan_study, run_study
 
 SMALL = """
 [device]
 name = "cloverleaf"
 [model]
 order = 1
-objective = "least-squares"
+[objective]
+name = "least-squares"
 [tuning]
 electrodes = ["B1", "B2"]
 start_bias = [0.0, 0.0, 0.0]
@@ -85,12 +86,12 @@ def test_rerun_skips_done_runs_and_writes_outputs(tmp_path, monkeypatch):
     first = run_study(cfg, out, executor="local", plots=True)
     assert (out / "results.nc").exists() and (out / "summary.json").exists()
     assert (out / "fig-least-squares-act-iter2.png").exists()
-    import sysid_core.study as study
+    import sysid_core.study_exec as study_exec
 
     def boom(spec):
         raise AssertionError(f"run {spec.key} should not run again")
 
-    monkeypatch.setattr(study, "run_one", boom)
+    monkeypatch.setattr(study_exec, "run_one", boom)
     again = run_study(cfg, out, executor="local", plots=False)
     assert again["summary"] == first["summary"]
     import xarray as xr
@@ -116,7 +117,7 @@ def _break_measurements_at(monkeypatch, tuned_start: list[float]) -> None:
 
 
 def test_failed_run_is_reported_others_finish_and_a_rerun_retries_it(tmp_path, monkeypatch):
-    import sysid_core.study as study
+    import sysid_core.study_exec as study_exec
 
     cfg = _cfg(tmp_path, SMALL.replace("iterations = 2", "iterations = 1"))
     out = tmp_path / "f"
@@ -128,7 +129,7 @@ def test_failed_run_is_reported_others_finish_and_a_rerun_retries_it(tmp_path, m
     assert failure["key"] == "least-squares-act-002" and failure["start"][:2] == [3.0, -3.0]
     assert "DeviceError" in failure["error"] and "lost the connection" in failure["error"]
     assert res["summary"]["least-squares"]["act"]["1"]["runs"] == 3
-    message = study.failure_message(res)
+    message = failure_message(res)
     assert message.startswith(
         "1 of 4 runs failed (first: least-squares-act-002 at start [3.0, -3.0]: DeviceError: "
     )
@@ -138,11 +139,11 @@ def test_failed_run_is_reported_others_finish_and_a_rerun_retries_it(tmp_path, m
     assert "lost the connection" in saved["error"]
 
     ran = []
-    run_one = study.run_one
-    monkeypatch.setattr(study, "run_one", lambda spec: ran.append(spec.key) or run_one(spec))
+    run_one = study_exec.run_one
+    monkeypatch.setattr(study_exec, "run_one", lambda spec: ran.append(spec.key) or run_one(spec))
     again = run_study(cfg, out, executor="local", plots=False)
     assert ran == ["least-squares-act-002"]  # only the failed run, not the three done ones
-    assert again["failed"] == 0 and again["failures"] == [] and study.failure_message(again) == ""
+    assert again["failed"] == 0 and again["failures"] == [] and failure_message(again) == ""
     assert again["summary"]["least-squares"]["act"]["1"]["runs"] == 4
     saved = json.loads((out / "results" / "least-squares-act-002.json").read_text())
     assert saved["error"] is None and len(saved["iterations"]) == 1
@@ -235,7 +236,7 @@ def test_cli_exits_1_when_runs_failed_after_writing_every_output(tmp_path):
 
 
 def test_cli_partial_failure_then_rerun_retries_it(tmp_path, monkeypatch, capsys):
-    import sysid_core.study as study
+    import sysid_core.study_exec as study_exec
     from sysid_core.cli import main
 
     cfg = tmp_path / "study.toml"
@@ -255,8 +256,8 @@ def test_cli_partial_failure_then_rerun_retries_it(tmp_path, monkeypatch, capsys
     assert json.loads(captured.out.splitlines()[-1])["failed"] == 1
 
     ran = []
-    run_one = study.run_one
-    monkeypatch.setattr(study, "run_one", lambda spec: ran.append(spec.key) or run_one(spec))
+    run_one = study_exec.run_one
+    monkeypatch.setattr(study_exec, "run_one", lambda spec: ran.append(spec.key) or run_one(spec))
     assert main(argv) == 0
     captured = capsys.readouterr()
     assert ran == ["least-squares-act-001"] and captured.err == ""
@@ -264,7 +265,7 @@ def test_cli_partial_failure_then_rerun_retries_it(tmp_path, monkeypatch, capsys
 
 
 def test_cut_off_run_restarts_and_nothing_else_is_deleted(tmp_path):
-    import sysid_core.study as study
+    import sysid_core.study_exec as study_exec
 
     cfg = _cfg(tmp_path, SMALL.replace("iterations = 2", "iterations = 1"))
     out = tmp_path / "s"
@@ -278,14 +279,14 @@ def test_cut_off_run_restarts_and_nothing_else_is_deleted(tmp_path):
     assert (out / "results" / "least-squares-act-001.json").exists()
 
     # A spec pointing anywhere else (a folder not under a study's runs/, or a link) is refused.
-    spec = study.plan_study(cfg, out).specs[1]
+    spec = plan_study(cfg, out).specs[1]
     elsewhere = tmp_path / "precious" / spec.key
     elsewhere.mkdir(parents=True)
     (elsewhere / "keep.txt").write_text("keep")
     link = out / "runs" / "link"
     link.symlink_to(elsewhere)
     for target in (elsewhere, link):
-        res = study.run_one(dataclasses.replace(spec, out=str(target)))
+        res = study_exec.run_one(dataclasses.replace(spec, out=str(target)))
         assert "refusing to delete" in res["error"]
     assert (elsewhere / "keep.txt").read_text() == "keep"
 

@@ -16,13 +16,16 @@ from hypothesis import strategies as st
 from sysid_cloverleaf import CloverleafGyro
 from sysid_criteria import Degenerate, MinMaxBias, Target
 from sysid_models import ActStructure
+from sysid_solvers import ClarabelSolver
 
 from sysid_core.errors import BiasLimitError, ConfigError, UnreachableTuningError
 from sysid_core.model import FittedModel
+from sysid_core.options import build
 from sysid_core.simulation import GyroTruth
 from sysid_core.tuning import BiasSpace, bias_from_w, frequencies_from_w, w_interval
 
 TWO_PI = 2 * np.pi
+SOLVER = ClarabelSolver()
 ALL = ["B1", "B2", "B3"]
 
 
@@ -61,7 +64,8 @@ def true_modes(truth: GyroTruth, bias: np.ndarray) -> np.ndarray:
 
 # ------------------------------------------------------------ calibration figures
 def test_two_electrode_degenerate_matches_calibration(truth: GyroTruth) -> None:
-    res = Degenerate().solve(exact_model(truth, ["B1", "B2"]), space(truth, ["B1", "B2"]))
+    pair = ["B1", "B2"]
+    res = Degenerate(solver=SOLVER).solve(exact_model(truth, pair), space(truth, pair))
     np.testing.assert_allclose(res.bias, [2.0407, 4.3882, 0.0], atol=2e-4)
     assert res.bias[2] == 0.0  # the held electrode stays at its start value
     f = true_modes(truth, res.bias)
@@ -71,20 +75,20 @@ def test_two_electrode_degenerate_matches_calibration(truth: GyroTruth) -> None:
 
 
 def test_three_electrode_target_4430(truth: GyroTruth) -> None:
-    res = Target(target_hz=4430.0).solve(exact_model(truth, ALL), space(truth, ALL))
+    res = Target(solver=SOLVER, target_hz=4430.0).solve(exact_model(truth, ALL), space(truth, ALL))
     np.testing.assert_allclose(res.bias, [1.995, 4.387, -0.0385], atol=0.01)
     np.testing.assert_allclose(true_modes(truth, res.bias), 4430.0, atol=1e-3)
     assert res.value < 1e-3 and res.info["target_hz"] == 4430.0
 
 
 def test_three_electrode_target_4435(truth: GyroTruth) -> None:
-    res = Target(target_hz=4435.0).solve(exact_model(truth, ALL), space(truth, ALL))
+    res = Target(solver=SOLVER, target_hz=4435.0).solve(exact_model(truth, ALL), space(truth, ALL))
     np.testing.assert_allclose(res.bias, [9.216, 4.479, 5.372], atol=0.01)
     np.testing.assert_allclose(true_modes(truth, res.bias), 4435.0, atol=1e-3)
 
 
 def test_three_electrode_min_max_bias(truth: GyroTruth) -> None:
-    res = MinMaxBias().solve(exact_model(truth, ALL), space(truth, ALL))
+    res = MinMaxBias(solver=SOLVER).solve(exact_model(truth, ALL), space(truth, ALL))
     np.testing.assert_allclose(res.bias, [-2.862, 4.290, -4.290], atol=5e-3)
     assert np.max(np.abs(res.bias)) == pytest.approx(4.2898, abs=5e-3)
     assert res.info["max_abs_bias"] == pytest.approx(np.max(np.abs(res.bias)))
@@ -97,15 +101,15 @@ def test_three_electrode_min_max_bias(truth: GyroTruth) -> None:
 
 def test_min_max_bias_is_smaller_than_degenerate(truth: GyroTruth) -> None:
     model, sp = exact_model(truth, ALL), space(truth, ALL)
-    deg = Degenerate().solve(model, sp)
-    mm = MinMaxBias().solve(model, sp)
+    deg = Degenerate(solver=SOLVER).solve(model, sp)
+    mm = MinMaxBias(solver=SOLVER).solve(model, sp)
     assert np.max(np.abs(mm.bias)) < np.max(np.abs(deg.bias))
 
 
 def test_unreachable_target(truth: GyroTruth) -> None:
     sp = space(truth, ALL)
     with pytest.raises(UnreachableTuningError, match="4460") as info:
-        Target(target_hz=4460.0).solve(exact_model(truth, ALL), sp)
+        Target(solver=SOLVER, target_hz=4460.0).solve(exact_model(truth, ALL), sp)
     best = np.asarray(info.value.best_bias)
     assert best.shape == (3,)
     assert np.all((best >= -10.0) & (best <= 10.0))
@@ -121,21 +125,21 @@ def test_degenerate_impossible_with_subset(truth: GyroTruth, tuned: list[str]) -
     # anisotropy components.
     sp = space(truth, tuned)
     with pytest.raises(UnreachableTuningError, match="degenerate") as info:
-        Degenerate().solve(exact_model(truth, tuned), sp)
+        Degenerate(solver=SOLVER).solve(exact_model(truth, tuned), sp)
     best = np.asarray(info.value.best_bias)
     assert np.all(np.abs(best) <= 10.0)
     held = [ALL.index(e) for e in ALL if e not in tuned]
     assert np.all(best[held] == 0.0)
     assert info.value.best_value > 0.1
     with pytest.raises(UnreachableTuningError):
-        MinMaxBias().solve(exact_model(truth, tuned), sp)
+        MinMaxBias(solver=SOLVER).solve(exact_model(truth, tuned), sp)
 
 
 def test_degenerate_with_narrow_limits_is_unreachable(truth: GyroTruth) -> None:
     # B2 needs 4.39 V; with limits (-3, 3) the best is on the boundary.
     sp = space(truth, ["B1", "B2"], limits=(-3.0, 3.0))
     with pytest.raises(UnreachableTuningError) as info:
-        Degenerate().solve(exact_model(truth, ["B1", "B2"]), sp)
+        Degenerate(solver=SOLVER).solve(exact_model(truth, ["B1", "B2"]), sp)
     assert info.value.best_bias[1] == pytest.approx(3.0, abs=1e-6)
 
 
@@ -147,11 +151,11 @@ def test_min_max_bias_with_limits_excluding_zero(truth: GyroTruth) -> None:
     k = model.stiffness_w(w)
     model.K0 = model.K0 - (k - np.linalg.eigvalsh(k).mean() * np.eye(2))
     sp = BiasSpace(ALL, ALL, np.full(3, 2.0), (2.0, 10.0), truth.structure_potential)
-    res = MinMaxBias().solve(model, sp)
+    res = MinMaxBias(solver=SOLVER).solve(model, sp)
     assert np.all((res.bias >= 2.0) & (res.bias <= 10.0))
     assert res.split_hz < 1e-3
     assert np.max(res.bias) <= 2.4 + 1e-3
-    assert np.max(res.bias) <= np.max(Degenerate().solve(model, sp).bias) + 1e-3
+    assert np.max(res.bias) <= np.max(Degenerate(solver=SOLVER).solve(model, sp).bias) + 1e-3
 
 
 def test_bias_space_errors(truth: GyroTruth) -> None:
@@ -168,11 +172,11 @@ def test_bias_space_errors(truth: GyroTruth) -> None:
 
 def test_criterion_options() -> None:
     with pytest.raises(ConfigError, match="target_hz"):
-        Target()
-    with pytest.raises(ConfigError, match="bogus"):
-        Degenerate(bogus=1)
+        Target(solver=SOLVER)
+    with pytest.raises(ConfigError, match="bogus"):  # as a config's [tuning.options] is built
+        build("tuning criterion", "degenerate", Degenerate, {"solver": SOLVER, "bogus": 1})
     with pytest.raises(ConfigError, match="positive"):
-        MinMaxBias(tolerance_hz=0)
+        MinMaxBias(solver=SOLVER, tolerance_hz=0)
 
 
 # --------------------------------------------------------------- w <-> bias
@@ -298,9 +302,9 @@ def test_criteria_return_biases_inside_the_limits(model_space, name: str, target
     sub = _sub(model, sp)
     low, high = sp.limits
     criterion = {
-        "degenerate": Degenerate,
-        "target": lambda: Target(target_hz=target),
-        "min-max-bias": MinMaxBias,
+        "degenerate": lambda: Degenerate(solver=SOLVER),
+        "target": lambda: Target(solver=SOLVER, target_hz=target),
+        "min-max-bias": lambda: MinMaxBias(solver=SOLVER),
     }[name]()
     try:
         res = criterion.solve(sub, sp)

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 import xarray as xr
 
 from sysid_core.errors import BiasLimitError, ConfigError, FrequencyGridError
-from sysid_core.simulation import GyroTruth, modal_analysis
+from sysid_core.modal import modal_analysis
+from sysid_core.simulation import GyroTruth
 from sysid_simgyro.effects import ExtraMode, peak_magnitude, quantize_bias
 from sysid_simgyro.options import (
     COMMON_OPTIONS,
@@ -17,7 +18,6 @@ from sysid_simgyro.options import (
     as_dac_bits,
     as_fraction,
     as_seed,
-    reject_unknown,
 )
 from sysid_simgyro.params import GyroParameterSet
 from sysid_simgyro.physics import TWO_PI
@@ -296,7 +296,8 @@ class ParametrizedGyro(SimulatedGyro):
     """A :class:`SimulatedGyro` built from a parameter set, configured by keyword options.
 
     Subclasses set :attr:`name`, :attr:`description` and :attr:`parameters_class`. The keyword
-    options are those of a config's ``[device]`` table (see :attr:`options`); an unknown one
+    options are those of a config's ``[device]`` table (see :attr:`options`), checked by the
+    registry against this signature (:mod:`sysid_core.options`); an unknown one
     raises :class:`~sysid_core.errors.ConfigError` naming it.
 
     Parameters
@@ -329,9 +330,7 @@ class ParametrizedGyro(SimulatedGyro):
         dac_bits: int = 16,
         seed: int | None = 0,
         params: GyroParameterSet | None = None,
-        **unknown: Any,
     ) -> None:
-        reject_unknown(self.name, unknown, self.options)
         if params is None:
             params = self.parameters_class()
         elif not isinstance(params, self.parameters_class):

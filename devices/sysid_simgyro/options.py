@@ -6,11 +6,9 @@ Every check raises :class:`sysid_core.errors.ConfigError` naming the device and 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
 from typing import Any
 
 from sysid_core.errors import ConfigError
-from sysid_core.interfaces import check_options
 
 __all__ = [
     "COMMON_OPTIONS",
@@ -18,16 +16,10 @@ __all__ = [
     "as_dac_bits",
     "as_fraction",
     "as_seed",
-    "reject_unknown",
 ]
 
 #: Options every simulated gyro takes (see :class:`sysid_simgyro.device.SimulatedGyro`).
 COMMON_OPTIONS: tuple[str, ...] = ("noise", "feedthrough", "extra_modes", "dac_bits", "seed")
-
-
-def reject_unknown(device: str, unknown: Mapping[str, Any], allowed: Sequence[str]) -> None:
-    """Raise :class:`ConfigError` naming the first key of ``unknown`` (options not accepted)."""
-    check_options("device", device, dict(unknown), allowed)
 
 
 def _is_number(value: Any) -> bool:

@@ -2,26 +2,20 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Annotated, Any
 
 import numpy as np
+from annotated_types import Gt
 
+from sysid_core.conic import Solver
 from sysid_core.errors import ConfigError, SolverError, UnreachableTuningError
-from sysid_core.interfaces import Goal, Solver, TuningCriterion, check_options, typed_option
-from sysid_core.tuning import BiasSpace, TuningResult, frequencies_from_w, solve_spread
-
-if TYPE_CHECKING:
-    from sysid_core.model import FittedModel
+from sysid_core.model import FittedModel
+from sysid_core.spread import solve_spread
+from sysid_core.tuning import BiasSpace, Goal, TuningCriterion, TuningResult, frequencies_from_w
 
 __all__ = ["Degenerate", "MinMaxBias", "Target"]
 
-
-def _solver(name: str | Solver) -> Solver:
-    if isinstance(name, Solver):
-        return name
-    from sysid_core.registry import get_registry
-
-    return get_registry().create("solver", name)
+Positive = Annotated[float, Gt(0)]
 
 
 def _fmt(bias: np.ndarray) -> str:
@@ -29,14 +23,22 @@ def _fmt(bias: np.ndarray) -> str:
 
 
 class _Base(TuningCriterion):
-    OPTIONS: tuple[str, ...] = ("tolerance_hz", "solver")
+    """Shared by the three: the conic ``solver`` (the run's, with its options) and a tolerance.
 
-    def __init__(self, tolerance_hz: float = 1e-3, solver: str | Solver = "clarabel", **opts: Any):
-        check_options("tuning criterion", self.name, opts, self.OPTIONS)
-        self.tolerance_hz = typed_option(
-            "tuning criterion", self.name, "tolerance_hz", tolerance_hz, float, positive=True
-        )
-        self.solver = _solver(solver)
+    Options are checked by the registry against these annotations (see
+    :mod:`sysid_core.options`) before anything is built.
+    """
+
+    def __init__(self, *, solver: Solver, tolerance_hz: Positive = 1e-3) -> None:
+        if not isinstance(solver, Solver):
+            raise ConfigError(
+                f"criterion {self.name!r} needs a conic solver (a sysid_core.conic.Solver), "
+                f"got {solver!r}"
+            )
+        if not (isinstance(tolerance_hz, (int, float)) and tolerance_hz > 0):
+            raise ConfigError(f"tolerance_hz must be a positive number of Hz, got {tolerance_hz!r}")
+        self.tolerance_hz = float(tolerance_hz)
+        self.solver = solver
 
     def _result(
         self, model: FittedModel, space: BiasSpace, w: np.ndarray, value: float, **info: Any
@@ -65,8 +67,8 @@ class Degenerate(_Base):
     tolerance_hz : float
         Largest predicted split that counts as degenerate (default 1 mHz); above it the goal is
         unreachable inside the limits.
-    solver : str
-        Conic solver backend (default ``clarabel``).
+    solver : Solver
+        Conic solver backend (the run's, with the ``[solver]`` options).
     """
 
     name = "degenerate"
@@ -101,27 +103,26 @@ class Target(_Base):
         Target modal frequency (Hz); required.
     tolerance_hz : float
         Largest frequency error that counts as reached (default 10 mHz).
-    solver : str
-        Conic solver backend.
+    solver : Solver
+        Conic solver backend (the run's, with the ``[solver]`` options).
     """
 
     name = "target"
     description = "both modes at target_hz, eq. (23)"
-    OPTIONS = ("tolerance_hz", "solver", "target_hz")
 
     def __init__(
         self,
-        target_hz: float | None = None,
-        tolerance_hz: float = 1e-2,
-        solver: str | Solver = "clarabel",
-        **opts: Any,
+        *,
+        solver: Solver,
+        target_hz: Positive | None = None,
+        tolerance_hz: Positive = 1e-2,
     ) -> None:
-        super().__init__(tolerance_hz, solver, **opts)
+        super().__init__(solver=solver, tolerance_hz=tolerance_hz)
         if target_hz is None:
             raise ConfigError("criterion 'target' needs target_hz (in [tuning])")
-        self.target_hz = typed_option(
-            "tuning criterion", self.name, "target_hz", target_hz, float, positive=True
-        )
+        if not (isinstance(target_hz, (int, float)) and target_hz > 0):
+            raise ConfigError(f"target_hz must be a positive frequency, got {target_hz!r}")
+        self.target_hz = float(target_hz)
 
     def goals(self, measured_hz: np.ndarray, acceptance_hz: float) -> list[Goal]:
         """The split, and the largest distance of a measured mode from ``target_hz``."""
@@ -167,26 +168,25 @@ class MinMaxBias(_Base):
         Largest predicted split that counts as degenerate at the full limits (default 1 mHz).
     bias_tol : float
         Bisection stops when the bracket on ``T`` is narrower than this (default 1e-4 V).
-    solver : str
-        Conic solver backend.
+    solver : Solver
+        Conic solver backend (the run's, with the ``[solver]`` options).
     """
 
     name = "min-max-bias"
     description = "degenerate modes with the smallest max |bias| (bisection)"
-    OPTIONS = ("tolerance_hz", "solver", "bias_tol")
     _FEASIBLE_HZ = 1e-5
 
     def __init__(
         self,
-        tolerance_hz: float = 1e-3,
-        solver: str | Solver = "clarabel",
-        bias_tol: float = 1e-4,
-        **opts: Any,
+        *,
+        solver: Solver,
+        tolerance_hz: Positive = 1e-3,
+        bias_tol: Positive = 1e-4,
     ) -> None:
-        super().__init__(tolerance_hz, solver, **opts)
-        self.bias_tol = typed_option(
-            "tuning criterion", self.name, "bias_tol", bias_tol, float, positive=True
-        )
+        super().__init__(solver=solver, tolerance_hz=tolerance_hz)
+        if not (isinstance(bias_tol, (int, float)) and bias_tol > 0):
+            raise ConfigError(f"bias_tol must be a positive number of volts, got {bias_tol!r}")
+        self.bias_tol = float(bias_tol)
 
     def _spread(self, model: FittedModel, space: BiasSpace, t_max: float):
         w, _ = solve_spread(model, space.box(t_max), self.solver)

@@ -7,15 +7,13 @@ sensor-actuator non-collocation; they differ only in which side ``P`` sits on.
 
 from __future__ import annotations
 
-import numpy as np
-
-from sysid_core.interfaces import ModelStructure
+from sysid_core.structures import ModelStructure
 
 __all__ = ["ActStructure", "SenStructure"]
 
 
 class ActStructure(ModelStructure):
-    """``act``: extra dynamics reflected to the output, ``psi = R~(w) Z_act^-1`` (eq. 2, fit by 8).
+    """``act``: extra dynamics reflected to the output, ``psi = R~ Z_act^-1`` (eq. 2, fit by 8).
 
     Equation error ``E = R~ - psi Z``.
     """
@@ -24,16 +22,9 @@ class ActStructure(ModelStructure):
     side = "output"
     description = "output dynamics reflected: psi = R~ Z^-1, error R~ - psi Z (eqs. 2-3, 8)"
 
-    def product(self, psi: np.ndarray, z: np.ndarray) -> np.ndarray:
-        return psi @ z
-
-    def response(self, p: np.ndarray, z: np.ndarray) -> np.ndarray:
-        # P Z^-1 = (Z^-T P^T)^T
-        return np.swapaxes(np.linalg.solve(np.swapaxes(z, -1, -2), np.swapaxes(p, -1, -2)), -1, -2)
-
 
 class SenStructure(ModelStructure):
-    """``sen``: extra dynamics reflected to the input, ``psi = Z_sen^-1 B~(w)`` (eq. 4, fit by 10).
+    """``sen``: extra dynamics reflected to the input, ``psi = Z_sen^-1 B~`` (eq. 4, fit by 10).
 
     Equation error ``E = B~ - Z psi``.
     """
@@ -41,9 +32,3 @@ class SenStructure(ModelStructure):
     name = "sen"
     side = "input"
     description = "input dynamics reflected: psi = Z^-1 B~, error B~ - Z psi (eqs. 4-5, 10)"
-
-    def product(self, psi: np.ndarray, z: np.ndarray) -> np.ndarray:
-        return z @ psi
-
-    def response(self, p: np.ndarray, z: np.ndarray) -> np.ndarray:
-        return np.linalg.solve(z, p)

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
-from sysid_core.interfaces import Objective, ProgressCallback, Solver, check_options
-from sysid_core.problem import FitProblem, ObjectiveResult
+from sysid_core.conic import Solver
+from sysid_core.objective import Objective, ObjectiveResult, Progress
+from sysid_core.problem import FitProblem
 from sysid_core.programs import least_squares_program
 
 __all__ = ["LeastSquares"]
@@ -25,11 +24,8 @@ class LeastSquares(Objective):
     name = "least-squares"
     description = "sum of squared equation errors (QP with 2x2 PSD constraints)"
 
-    def __init__(self, **options: Any) -> None:
-        check_options("objective", self.name, options, [])
-
     def fit(
-        self, problem: FitProblem, solver: Solver, progress: ProgressCallback | None = None
+        self, problem: FitProblem, solver: Solver, progress: Progress | None = None
     ) -> ObjectiveResult:
         sol = solver.solve(least_squares_program(problem))
         theta = sol.x[: problem.n_parameters]

@@ -2,19 +2,15 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Annotated
 
 import numpy as np
+from annotated_types import Ge, Gt
 
-from sysid_core.errors import FitError, SolverError
-from sysid_core.interfaces import (
-    Objective,
-    ProgressCallback,
-    Solver,
-    check_options,
-    typed_option,
-)
-from sysid_core.problem import FitProblem, ObjectiveResult
+from sysid_core.conic import Solver, SolveStatus
+from sysid_core.errors import ConfigError, FitError, SolverError
+from sysid_core.objective import Objective, ObjectiveResult, Progress
+from sysid_core.problem import FitProblem
 from sysid_core.programs import least_squares_program, minimax_program, tie_break_program
 
 __all__ = ["Minimax"]
@@ -71,31 +67,30 @@ class Minimax(Objective):
 
     name = "minimax"
     description = "worst-case equation error, eq. (8)/(10); working set, least-squares tie-break"
-    OPTIONS = ("tie_tol", "working_set", "cert_tol", "batch", "max_rounds", "keep")
 
     def __init__(
         self,
-        tie_tol: float = 1e-3,
+        tie_tol: Annotated[float, Ge(0)] = 1e-3,
         working_set: bool = True,
-        cert_tol: float = 1e-6,
-        batch: int | None = None,
-        max_rounds: int = 50,
-        keep: float = 0.8,
-        **options: Any,
+        cert_tol: Annotated[float, Ge(0)] = 1e-6,
+        batch: Annotated[int, Gt(0)] | None = None,
+        max_rounds: Annotated[int, Gt(0)] = 50,
+        keep: Annotated[float, Ge(0)] = 0.8,
     ) -> None:
-        check_options("objective", self.name, options, self.OPTIONS)
-        opt = lambda key, value, kind, **b: typed_option(  # noqa: E731
-            "objective", self.name, key, value, kind, **b
-        )
-        self.tie_tol = opt("tie_tol", tie_tol, float, minimum=0.0)
-        self.working_set = opt("working_set", working_set, bool)
-        self.cert_tol = opt("cert_tol", cert_tol, float, minimum=0.0)
-        self.batch = None if batch is None else opt("batch", batch, int, minimum=1)
-        self.max_rounds = opt("max_rounds", max_rounds, int, minimum=1)
-        self.keep = opt("keep", keep, float, minimum=0.0)
+        if min(tie_tol, cert_tol, keep) < 0 or max_rounds < 1 or (batch is not None and batch < 1):
+            raise ConfigError(
+                "minimax options: tie_tol, cert_tol and keep must be >= 0, max_rounds and "
+                "batch >= 1"
+            )
+        self.tie_tol = float(tie_tol)
+        self.working_set = bool(working_set)
+        self.cert_tol = float(cert_tol)
+        self.batch = batch
+        self.max_rounds = int(max_rounds)
+        self.keep = float(keep)
 
     def fit(
-        self, problem: FitProblem, solver: Solver, progress: ProgressCallback | None = None
+        self, problem: FitProblem, solver: Solver, progress: Progress | None = None
     ) -> ObjectiveResult:
         say = progress or (lambda _msg: None)
         solves = iterations = 0
@@ -164,7 +159,9 @@ class Minimax(Objective):
 class _WorkingSet:
     """The growing (and pruned) set of data points of one minimax fit."""
 
-    def __init__(self, problem: FitProblem, solver: Solver, obj: Minimax, batch: int, say) -> None:
+    def __init__(
+        self, problem: FitProblem, solver: Solver, obj: Minimax, batch: int, say: Progress
+    ) -> None:
         self.problem, self.solver, self.obj, self.batch, self.say = problem, solver, obj, batch, say
         n = problem.n_points
         self.in_set = np.zeros(n, dtype=bool)
@@ -195,7 +192,7 @@ class _WorkingSet:
                 if (
                     bound is not None
                     or points.size == n_pts
-                    or not str(exc.status).startswith("Almost")
+                    or exc.status is not SolveStatus.INACCURATE
                     or self.retries >= 3
                 ):
                     raise  # the tie-break falls back to the minimax optimum; see Minimax.fit

@@ -2,15 +2,20 @@
 
 from __future__ import annotations
 
-import time
 from typing import Any, ClassVar
 
 import numpy as np
 import scipy.sparse as sp
 
-from sysid_core.conic import ConicProgram, ConicSolution, svec_length, upper_colmajor_permutation
+from sysid_core.conic import (
+    ConicProgram,
+    ConicSolution,
+    Solver,
+    SolveStatus,
+    svec_length,
+    upper_colmajor_permutation,
+)
 from sysid_core.errors import ConfigError, SolverError
-from sysid_core.interfaces import Solver
 
 __all__ = ["ClarabelSolver"]
 
@@ -39,13 +44,26 @@ class ClarabelSolver(Solver):
         "AlmostSolved").
 
     Only status ``Solved`` is accepted; any other status (``AlmostSolved`` included) raises
-    :class:`~sysid_core.errors.SolverError` naming it.
+    :class:`~sysid_core.errors.SolverError` with its :class:`~sysid_core.conic.SolveStatus`.
+    The options are open-ended (every Clarabel setting), so this backend takes ``**options``
+    and lets Clarabel check each one as it is set, at construction.
     """
 
     name = "clarabel"
     description = "Clarabel interior-point conic solver (direct, standard form)"
-    #: Clarabel status -> toolkit status; anything not here is an error.
-    STATUS_MAP: ClassVar[dict[str, str]] = {"Solved": "solved"}
+    #: Clarabel's status words and the toolkit's (an unknown word is FAILED).
+    STATUS_MAP: ClassVar[dict[str, SolveStatus]] = {
+        "Solved": SolveStatus.SOLVED,
+        "AlmostSolved": SolveStatus.INACCURATE,
+        "AlmostPrimalInfeasible": SolveStatus.INACCURATE,
+        "AlmostDualInfeasible": SolveStatus.INACCURATE,
+        "PrimalInfeasible": SolveStatus.INFEASIBLE,
+        "DualInfeasible": SolveStatus.UNBOUNDED,
+        "MaxIterations": SolveStatus.LIMIT,
+        "MaxTime": SolveStatus.LIMIT,
+        "NumericalError": SolveStatus.FAILED,
+        "InsufficientProgress": SolveStatus.FAILED,
+    }
 
     def __init__(self, **options: Any) -> None:
         import clarabel
@@ -85,26 +103,18 @@ class ClarabelSolver(Solver):
             cones.append(clarabel.NonnegativeConeT(c.nonneg))
         cones += [clarabel.SecondOrderConeT(q) for q in c.soc]
         cones += [clarabel.PSDTriangleConeT(s) for s in c.psd]
-        t0 = time.perf_counter()
         try:
             sol = clarabel.DefaultSolver(p, program.c, sp.csc_matrix(a), b, cones, settings).solve()
         except Exception as exc:  # clarabel raises on malformed data
-            raise SolverError(f"Clarabel failed: {exc}", status="error") from exc
-        elapsed = time.perf_counter() - t0
+            raise SolverError(f"Clarabel failed: {exc}", SolveStatus.FAILED, "error") from exc
         raw = str(sol.status).split(".")[-1]
-        status = self.STATUS_MAP.get(raw)
-        if status is None:
+        status = self.status(raw)
+        if status is not SolveStatus.SOLVED:
             raise SolverError(
                 f"Clarabel ended with status {raw!r} after {sol.iterations} iterations, not "
                 "'Solved': the model would be unreliable. Try solver 'scs', another objective, "
                 "or check the data for outliers",
-                status=raw,
+                status,
+                raw,
             )
-        return ConicSolution(
-            x=np.asarray(sol.x),
-            objective=float(sol.obj_val),
-            status=status,
-            solver_status=raw,
-            iterations=int(sol.iterations),
-            solve_time=elapsed,
-        )
+        return ConicSolution(x=np.asarray(sol.x), iterations=int(sol.iterations))

@@ -2,36 +2,16 @@
 
 from __future__ import annotations
 
-import time
-from typing import Any, ClassVar
+from typing import Annotated, Any, ClassVar
 
 import numpy as np
 import scipy.sparse as sp
+from annotated_types import Gt
 
-from sysid_core.conic import ConicProgram, ConicSolution
-from sysid_core.errors import ConfigError, SolverError
-from sysid_core.interfaces import Solver, typed_option
+from sysid_core.conic import ConicProgram, ConicSolution, Solver, SolveStatus
+from sysid_core.errors import SolverError
 
 __all__ = ["ScsSolver"]
-
-#: SCS settings accepted here, with their type.
-_KNOWN: dict[str, type] = {
-    "eps_abs": float,
-    "eps_rel": float,
-    "eps_infeas": float,
-    "max_iters": int,
-    "time_limit_secs": float,
-    "verbose": bool,
-    "normalize": bool,
-    "scale": float,
-    "adaptive_scale": bool,
-    "rho_x": float,
-    "alpha": float,
-    "acceleration_lookback": int,
-    "acceleration_interval": int,
-    "use_indirect": bool,
-    "gpu": bool,
-}
 
 
 class ScsSolver(Solver):
@@ -39,33 +19,62 @@ class ScsSolver(Solver):
 
     Parameters
     ----------
-    **options
-        SCS settings (``eps_abs``, ``eps_rel``, ``max_iters``, ...). Defaults here:
-        ``eps_abs = eps_rel = 1e-7``, ``max_iters = 200000``, ``verbose = False`` (SCS's own
-        1e-4 is too loose for tuning).
+    eps_abs, eps_rel : float
+        Absolute and relative tolerances; default 1e-7 (SCS's own 1e-4 is too loose for
+        tuning).
+    eps_infeas : float, optional
+        Infeasibility tolerance (SCS's default when not given).
+    max_iters : int
+        Iteration limit; default 200 000.
+    time_limit_secs : float, optional
+        Time limit (none by default).
+    verbose : bool
+        Print SCS's progress; default false.
+    normalize, adaptive_scale, use_indirect, gpu : bool, optional
+    scale, rho_x, alpha : float, optional
+    acceleration_lookback, acceleration_interval : int, optional
+        Passed to SCS when given (see SCS's documentation).
 
-    Only status ``solved`` is accepted; ``solved_inaccurate`` and every other status raise
-    :class:`~sysid_core.errors.SolverError` naming it.
+    Only status ``solved`` is accepted; every other status raises
+    :class:`~sysid_core.errors.SolverError` with its :class:`~sysid_core.conic.SolveStatus`.
     """
 
     name = "scs"
     description = "SCS first-order (ADMM) conic solver (direct, standard form)"
-    STATUS_MAP: ClassVar[dict[str, str]] = {"solved": "solved"}
+    #: SCS's status words and the toolkit's (an unknown word is FAILED).
+    STATUS_MAP: ClassVar[dict[str, SolveStatus]] = {
+        "solved": SolveStatus.SOLVED,
+        "solved_inaccurate": SolveStatus.INACCURATE,
+        "infeasible": SolveStatus.INFEASIBLE,
+        "infeasible_inaccurate": SolveStatus.INACCURATE,
+        "unbounded": SolveStatus.UNBOUNDED,
+        "unbounded_inaccurate": SolveStatus.INACCURATE,
+        "interrupted": SolveStatus.LIMIT,
+    }
 
-    def __init__(self, **options: Any) -> None:
-        for key, value in options.items():
-            if key not in _KNOWN:
-                raise ConfigError(
-                    f"unknown option {key!r} for solver 'scs'; known: {', '.join(sorted(_KNOWN))}"
-                )
-            options[key] = typed_option("solver", "scs", key, value, _KNOWN[key])
-        self.options = {
-            "eps_abs": 1e-7,
-            "eps_rel": 1e-7,
-            "max_iters": 200_000,
-            "verbose": False,
-            **options,
-        }
+    def __init__(
+        self,
+        *,
+        eps_abs: Annotated[float, Gt(0)] = 1e-7,
+        eps_rel: Annotated[float, Gt(0)] = 1e-7,
+        eps_infeas: Annotated[float, Gt(0)] | None = None,
+        max_iters: Annotated[int, Gt(0)] = 200_000,
+        time_limit_secs: Annotated[float, Gt(0)] | None = None,
+        verbose: bool = False,
+        normalize: bool | None = None,
+        scale: Annotated[float, Gt(0)] | None = None,
+        adaptive_scale: bool | None = None,
+        rho_x: Annotated[float, Gt(0)] | None = None,
+        alpha: Annotated[float, Gt(0)] | None = None,
+        acceleration_lookback: int | None = None,
+        acceleration_interval: Annotated[int, Gt(0)] | None = None,
+        use_indirect: bool | None = None,
+        gpu: bool | None = None,
+    ) -> None:
+        given = dict(locals())
+        given.pop("self")
+        #: The settings passed to SCS (those left at None use SCS's defaults).
+        self.options: dict[str, Any] = {k: v for k, v in given.items() if v is not None}
 
     def solve(self, program: ConicProgram) -> ConicSolution:
         import scs
@@ -75,27 +84,19 @@ class ScsSolver(Solver):
         if program.P is not None:
             data["P"] = sp.triu(program.P, format="csc")
         cone = {"z": c.zero, "l": c.nonneg, "q": list(c.soc), "s": list(c.psd)}
-        t0 = time.perf_counter()
         try:
             out = scs.SCS(data, cone, **self.options).solve()
         except Exception as exc:
-            raise SolverError(f"SCS failed: {exc}", status="error") from exc
-        elapsed = time.perf_counter() - t0
+            raise SolverError(f"SCS failed: {exc}", SolveStatus.FAILED, "error") from exc
         info = out["info"]
         raw = str(info["status"])
-        status = self.STATUS_MAP.get(raw)
-        if status is None:
+        status = self.status(raw)
+        if status is not SolveStatus.SOLVED:
             raise SolverError(
                 f"SCS ended with status {raw!r} after {info['iter']} iterations, not 'solved': "
                 "the model would be unreliable. Try more iterations (max_iters), solver "
                 "'clarabel', or check the data",
-                status=raw,
+                status,
+                raw,
             )
-        return ConicSolution(
-            x=np.asarray(out["x"]),
-            objective=float(info["pobj"]),
-            status=status,
-            solver_status=raw,
-            iterations=int(info["iter"]),
-            solve_time=elapsed,
-        )
+        return ConicSolution(x=np.asarray(out["x"]), iterations=int(info["iter"]))

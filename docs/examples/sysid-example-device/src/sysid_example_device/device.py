@@ -16,13 +16,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 import xarray as xr
 
 from sysid_core.errors import BiasLimitError, ConfigError
-from sysid_core.interfaces import check_options
 from sysid_core.simulation import GyroTruth
 
 __all__ = ["ExampleGyro", "example_truth"]
@@ -80,8 +79,7 @@ class ExampleGyro:
     name: ClassVar[str] = "example-gyro"
     description: ClassVar[str] = "Example simulated gyro (10 kHz, T1-T2)"
 
-    def __init__(self, *, noise: float = 1e-4, seed: int | None = 0, **unknown: Any) -> None:
-        check_options("device", self.name, unknown, ["noise", "seed"])
+    def __init__(self, *, noise: float = 1e-4, seed: int | None = 0) -> None:
         if isinstance(noise, bool) or not isinstance(noise, (int, float)) or not noise >= 0:
             raise ConfigError(f"option 'noise' of device {self.name!r} must be >= 0, got {noise!r}")
         self.truth = example_truth()

@@ -1,0 +1,136 @@
+"""The ``sysid`` program's common parts: the typer app, the consoles, the failure mapping.
+
+Exit status: 0 on success; 2 for a usage error (with the usual usage message); 130 when
+interrupted (Ctrl-C), with one line saying how to resume; 1 for every other failure, with one
+line ``sysid: error: ...`` on stderr and no traceback (set ``SYSID_DEBUG=1`` to see one). A
+failure that is a bug in the toolkit says so (``sysid: internal error: ...``), also with 1.
+
+Each command handles its own failures (:func:`command`), so the exit status does not depend on
+how the installed typer/click versions treat exceptions; usage errors are left to typer. The
+commands live in ``cli_fit``, ``cli_tune`` and ``cli_study``; ``cli`` runs the program.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Annotated, Any, TypeVar
+
+import typer
+from rich.console import Console, ConsoleDimensions
+
+from sysid_core import __version__
+from sysid_core.errors import SysidError
+
+__all__ = [
+    "Interrupted",
+    "JsonOption",
+    "OutDirOption",
+    "app",
+    "command",
+    "err",
+    "failure",
+    "out",
+]
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+class _Console(Console):
+    """A rich console that never cuts lines when its stream is not a terminal (pipes, logs)."""
+
+    @property
+    def size(self) -> ConsoleDimensions:
+        if not self.is_terminal:
+            return ConsoleDimensions(100_000, 25)
+        return Console.size.fget(self)  # type: ignore[attr-defined]
+
+    @size.setter
+    def size(self, new_size: tuple[int, int]) -> None:
+        Console.size.fset(self, new_size)  # type: ignore[attr-defined]
+
+
+err = _Console(stderr=True, soft_wrap=True)
+out = _Console(soft_wrap=True)
+
+
+def _version(value: bool) -> None:
+    if value:
+        print(f"sysid {__version__}")
+        raise typer.Exit()
+
+
+app = typer.Typer(
+    name="sysid",
+    help="Identify and tune electrostatically tuned vibratory gyros (Kim & M'Closkey 2006).",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+
+@app.callback()
+def _root(
+    version: Annotated[
+        bool,
+        typer.Option(
+            "--version", callback=_version, is_eager=True, help="Print the version and exit."
+        ),
+    ] = False,
+) -> None:
+    """Identify and tune electrostatically tuned vibratory gyros (Kim & M'Closkey 2006)."""
+
+
+#: Options shared by the commands that run a configuration file.
+OutDirOption = Annotated[
+    Path | None, typer.Option("--out", help="Output directory (default: runs/<config>).")
+]
+JsonOption = Annotated[bool, typer.Option("--json", help="Last stdout line: one JSON object.")]
+
+
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C, with a message saying how to continue (exit status 130)."""
+
+
+def failure(exc: BaseException) -> tuple[str, int]:
+    """The one line and the exit status for an exception that ends a command."""
+    if isinstance(exc, KeyboardInterrupt):
+        return f"sysid: {exc or 'interrupted'}", 130
+    if isinstance(exc, SysidError):
+        return f"sysid: error: {exc}", 1
+    if isinstance(exc, OSError):
+        where = f"{exc.filename}: " if exc.filename else ""
+        return f"sysid: error: {where}{exc.strerror or exc}", 1
+    if isinstance(exc, MemoryError):
+        return "sysid: error: out of memory (reduce the sweep sizes or the data)", 1
+    return (
+        f"sysid: internal error: {type(exc).__name__}: {exc} (this is a bug in sysid-toolkit; "
+        "please report it with the output of SYSID_DEBUG=1)",
+        1,
+    )
+
+
+def command(name: str) -> Callable[[F], F]:
+    """Register a command whose failures become one line and an exit status (see module)."""
+
+    def decorate(func: F) -> F:
+        @functools.wraps(func)
+        def guarded(*args: Any, **kwargs: Any) -> Any:
+            try:
+                return func(*args, **kwargs)
+            except (SystemExit, typer.Exit, typer.Abort):
+                raise
+            except BaseException as exc:
+                if os.environ.get("SYSID_DEBUG") and not isinstance(exc, KeyboardInterrupt):
+                    raise
+                line, code = failure(exc)
+                print(line, file=sys.stderr)
+                raise SystemExit(code) from None
+
+        app.command(name)(guarded)
+        return func
+
+    return decorate

@@ -1,0 +1,170 @@
+"""A study's results: the tidy data set, the statistics, the one-line failure summary and the
+side-by-side table with the paper's published numbers.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+__all__ = ["PAPER_NUMBERS", "failure_message", "markdown_report", "summarize", "to_dataset"]
+
+
+def to_dataset(results: list[dict[str, Any]], electrodes: list[str], iterations: int) -> xr.Dataset:
+    """Tidy data set of every run: dims (objective, model, start, iteration)."""
+    objectives = sorted(
+        {r["objective"] for r in results}, key=[r["objective"] for r in results].index
+    )
+    models = sorted({r["structure"] for r in results}, key=[r["structure"] for r in results].index)
+    n_start = max(r["index"] for r in results) + 1
+    shape = (len(objectives), len(models), n_start, iterations)
+    bias = np.full((*shape, len(electrodes)), np.nan)
+    fields = {
+        k: np.full(shape, np.nan)
+        for k in (
+            "true_split_hz",
+            "measured_split_hz",
+            "predicted_split_hz",
+            "gamma",
+            "true_frequency_hz",
+        )
+    }
+    start = np.full((n_start, len(electrodes)), np.nan)
+    error = np.full(shape[:3], "", dtype=object)
+    for r in results:
+        o, m, s = objectives.index(r["objective"]), models.index(r["structure"]), r["index"]
+        start[s] = r["start"]
+        error[o, m, s] = r["error"] or ""
+        for it in r["iterations"]:
+            k = it["iteration"] - 1
+            bias[o, m, s, k] = it["bias"]
+            for name, arr in fields.items():
+                value = it.get(name)
+                arr[o, m, s, k] = np.nan if value is None else value  # null: NaN in JSON
+    dims = ("objective", "model", "start", "iteration")
+    ds = xr.Dataset(
+        {
+            "predicted_bias": ((*dims, "electrode"), bias, {"units": "V"}),
+            **{k: (dims, v, {"units": "Hz"} if k != "gamma" else {}) for k, v in fields.items()},
+            "error": (dims[:3], error.astype(str)),
+        },
+        coords={
+            "objective": objectives,
+            "model": models,
+            "start": np.arange(n_start),
+            "iteration": np.arange(1, iterations + 1),
+            "electrode": electrodes,
+            "start_bias": (("start", "electrode"), start, {"units": "V"}),
+        },
+    )
+    return ds
+
+
+def summarize(ds: xr.Dataset, tuned_index: list[int]) -> dict[str, Any]:
+    """Per objective, model and iteration: bias statistics and true-split counts."""
+    out: dict[str, Any] = {}
+    for obj in ds["objective"].values:
+        per_model: dict[str, Any] = {}
+        for model in ds["model"].values:
+            per_it: dict[str, Any] = {}
+            for it in ds["iteration"].values:
+                sel = ds.sel(objective=obj, model=model, iteration=it)
+                split = sel["true_split_hz"].values
+                ok = np.isfinite(split)
+                b = sel["predicted_bias"].values[ok][:, tuned_index]
+                s = split[ok]
+                per_it[str(int(it))] = {
+                    "runs": int(ok.sum()),
+                    "failed": int((~ok).sum()),
+                    "mean_bias": np.round(b.mean(axis=0), 6).tolist() if ok.any() else None,
+                    "std_bias": np.round(b.std(axis=0, ddof=1), 6).tolist()
+                    if ok.sum() > 1
+                    else None,
+                    "under_10mHz": int((s < 0.010).sum()),
+                    "under_300mHz": int((s < 0.300).sum()),
+                    "median_split_hz": float(np.median(s)) if ok.any() else None,
+                    "split_percentiles_hz": {
+                        str(p): float(np.percentile(s, p)) for p in (10, 25, 50, 75, 90, 100)
+                    }
+                    if ok.any()
+                    else None,
+                }
+            per_model[str(model)] = per_it
+        out[str(obj)] = per_model
+    return out
+
+
+def failure_message(full: dict[str, Any], hint: str = "re-run the same command") -> str:
+    """One line on the failed runs of a study (``run_study``'s answer); "" if none failed.
+
+    For example ``3 of 98 runs failed (first: minimax-act-004 at start [9.0, -9.0]:
+    DeviceError: ...); results of the others are in DIR; re-run the same command to retry the
+    failed ones``.
+    """
+    failures = full.get("failures") or []
+    if not failures:
+        return ""
+    first = failures[0]
+    error = " ".join(str(first["error"]).split())
+    if len(error) > 300:
+        error = error[:297] + "..."
+    start = first.get("tuned_start", first["start"])
+    n, runs, where = len(failures), full["runs"], full.get("out", "the output folder")
+    kept = (
+        f"results of the others are in {where}"
+        if n < runs
+        else f"no run succeeded; the errors are in {where}/summary.json"
+    )
+    return (
+        f"{n} of {runs} runs failed (first: {first['key']} at start {start}: {error}); "
+        f"{kept}; {hint} to retry the failed ones"
+    )
+
+
+#: The paper's published numbers for Section III-B (Figs. 7-10), for the side-by-side report.
+PAPER_NUMBERS: dict[str, dict[str, str]] = {
+    "act": {
+        "1": "mean (2.005, 4.311) V, std (0.146, 0.150) V; 'the majority' < 300 mHz",
+        "2": "all but one < 10 mHz (the one: 20 mHz)",
+    },
+    "sen": {
+        "1": "mean (2.071, 4.241) V, std (0.762, 0.669) V",
+        "2": "'about as good as act'",
+    },
+}
+
+
+def markdown_report(full: dict[str, Any], command: str) -> str:
+    """A side-by-side table of the paper's numbers and this study's (true splits)."""
+    lines = [
+        f"Generated by `{command}` in {full['elapsed_s']:.0f} s ({full['runs']} runs, "
+        f"{len(full['failures'])} failed).",
+        "",
+        "| objective | model | iteration | paper | mean bias [V] | std [V] | < 10 mHz | "
+        "< 300 mHz | median true split [mHz] | 90th pct [mHz] | max [mHz] |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for obj, per_model in full["summary"].items():
+        for model, per_it in per_model.items():
+            for it, v in per_it.items():
+                pct = v["split_percentiles_hz"] or {}
+                fmt = lambda x: "-" if x is None else f"{x * 1e3:.2f}"  # noqa: E731
+                bias = (
+                    "-"
+                    if v["mean_bias"] is None
+                    else "(" + ", ".join(f"{b:.3f}" for b in v["mean_bias"]) + ")"
+                )
+                std = (
+                    "-"
+                    if v["std_bias"] is None
+                    else "(" + ", ".join(f"{b:.3f}" for b in v["std_bias"]) + ")"
+                )
+                lines.append(
+                    f"| {obj} | {model} | {it} | {PAPER_NUMBERS.get(model, {}).get(it, '')} | "
+                    f"{bias} | {std} | {v['under_10mHz']}/{v['runs']} | "
+                    f"{v['under_300mHz']}/{v['runs']} | {fmt(v['median_split_hz'])} | "
+                    f"{fmt(pct.get('90'))} | {fmt(pct.get('100'))} |"
+                )
+    return "\n".join(lines) + "\n"
