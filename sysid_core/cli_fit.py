@@ -57,9 +57,7 @@ def fit_cmd(
         Path | None,
         typer.Option("--out", help="Write the model here (netCDF; default DATA.model.nc)."),
     ] = None,
-    force: Annotated[
-        bool, typer.Option("--force", help="Replace an existing model file.")
-    ] = False,
+    force: Annotated[bool, typer.Option("--force", help="Replace an existing model file.")] = False,
     as_json: Annotated[
         bool, typer.Option("--json", help="Last stdout line: one JSON object.")
     ] = False,

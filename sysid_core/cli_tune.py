@@ -34,9 +34,7 @@ def tune_cmd(
 
     cfg = load_config(config)
     target = out_dir or Path("runs") / config.stem
-    resume_cmd = (
-        f"sysid tune {shlex.quote(str(config))} --out {shlex.quote(str(target))} --resume"
-    )
+    resume_cmd = f"sysid tune {shlex.quote(str(config))} --out {shlex.quote(str(target))} --resume"
     with err.status("starting ...") as status:
 
         def progress(message: str) -> None:
@@ -55,9 +53,7 @@ def tune_cmd(
     if as_json:
         print(json.dumps({k: v for k, v in summary.as_dict().items() if k != "history"}))
     else:
-        out.print(
-            f"{summary.device}: {summary.status}", highlight=False
-        )
+        out.print(f"{summary.device}: {summary.status}", highlight=False)
         out.print(
             "final bias: "
             + ", ".join(

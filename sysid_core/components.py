@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 from sysid_core.config import PipelineConfig
 from sysid_core.conic import Solver
-from sysid_core.measuring import Device, check_device
+from sysid_core.device import Device, check_device
 from sysid_core.objective import Objective
 from sysid_core.options import accepted_options
 from sysid_core.registry import Registry

@@ -155,9 +155,7 @@ class ExperimentConfig(_Strict):
     @classmethod
     def _ordered(cls, v: tuple[float, float] | None) -> tuple[float, float] | None:
         if v is not None and not (math.isfinite(v[0]) and math.isfinite(v[1]) and 0 < v[0] < v[1]):
-            raise ValueError(
-                f"must be [low, high] in Hz with 0 < low < high, got [{v[0]}, {v[1]}]"
-            )
+            raise ValueError(f"must be [low, high] in Hz with 0 < low < high, got [{v[0]}, {v[1]}]")
         return v
 
 

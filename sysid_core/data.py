@@ -48,7 +48,6 @@ __all__ = [
 RESPONSE_DIMS = ("experiment", "frequency", "output", "input")
 
 
-
 def make_dataset(
     responses: Sequence[np.ndarray],
     frequencies_hz: Sequence[np.ndarray] | np.ndarray,

@@ -46,6 +46,7 @@ class FittedModel(Protocol):
 
     def label(self, b: np.ndarray) -> str: ...
 
+
 __all__ = ["BACKGROUND_POLES", "N_BAND_POINTS", "to_frd", "to_statespace"]
 
 #: Points of the grid over the band on which :func:`to_statespace` fits and measures.
@@ -137,7 +138,12 @@ def to_statespace(
     scale = float(np.linalg.norm(target))
 
     t, bc, cc = principal_part(
-        model.M, model.C, k, model.poly, model.omega_center, model.omega_half,
+        model.M,
+        model.C,
+        k,
+        model.poly,
+        model.omega_center,
+        model.omega_half,
         model.structure.side,
     )
     a_res, b_res, c_res = _real_realisation(t, bc, cc)
@@ -196,7 +202,6 @@ def to_statespace(
             stacklevel=3,
         )
     return sys
-
 
 
 def to_frd(
@@ -259,7 +264,6 @@ def to_frd(
     )
 
 
-
 def _band(model: FittedModel, band_hz: tuple[float, float] | None) -> tuple[float, float]:
     """``band_hz`` checked, or the fitted band ``omega_center ± omega_half`` (Hz)."""
     if band_hz is None:
@@ -278,7 +282,6 @@ def _band(model: FittedModel, band_hz: tuple[float, float] | None) -> tuple[floa
             f"band_hz must be finite frequencies with 0 < low < high (Hz); got ({lo}, {hi})"
         )
     return lo, hi
-
 
 
 def _real_realisation(
@@ -309,5 +312,3 @@ def _frequency_response(
     """``C (j omega I - A)^-1 B + D``, shape ``(N, n_out, n_in)``."""
     eye = np.eye(a.shape[0])
     return c @ np.linalg.solve(1j * omega[:, None, None] * eye - a, b) + d
-
-

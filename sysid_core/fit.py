@@ -41,8 +41,7 @@ def _component(
     if isinstance(value, str):
         return (registry or get_registry()).create(kind, value, **options)
     raise TypeError(
-        f"{what} must be a name (str) or a {cls.__name__}, not {type(value).__name__} "
-        f"({value!r})"
+        f"{what} must be a name (str) or a {cls.__name__}, not {type(value).__name__} ({value!r})"
     )
 
 

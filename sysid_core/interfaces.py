@@ -15,7 +15,7 @@ Plugins implement them and register through the hooks of :mod:`sysid_core.hooksp
 from __future__ import annotations
 
 from sysid_core.conic import ConicProgram, ConicSolution, Solver, SolveStatus
-from sysid_core.measuring import Device, SimulatedDevice
+from sysid_core.device import Device, SimulatedDevice
 from sysid_core.objective import Objective, ObjectiveResult, Progress
 from sysid_core.structures import ModelStructure
 from sysid_core.tuning import BiasSpace, Goal, TuningCriterion, TuningResult

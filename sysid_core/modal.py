@@ -10,6 +10,9 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 import scipy.linalg
 
@@ -20,6 +23,51 @@ __all__ = ["MODAL_COND_LIMIT", "modal_analysis", "mode_peaks", "principal_part"]
 #: :func:`principal_part` keeps the two modes in triangular (Schur) form instead of diagonal
 #: form when the eigenvectors' condition number exceeds this (nearly defective modes).
 MODAL_COND_LIMIT = 1e6
+
+
+def snr_loss_db(split_hz: float, center_hz: float, q: float) -> float:
+    """SNR loss ``10 log10(1 + 4 Q^2 mu^2)`` in dB, ``mu = split / center`` (paper, Sec. I)."""
+    mu = split_hz / center_hz
+    return float(10 * np.log10(1 + 4 * q**2 * mu**2))
+
+
+@dataclass(frozen=True)
+class ModalReport:
+    """Modal figures of a model at one bias.
+
+    Attributes
+    ----------
+    bias : list of float
+        Bias potentials (volts relative to ground).
+    frequencies_hz : ndarray
+        Undamped modal frequencies (generalized eigenvalues of ``(K, M)``), ascending.
+    damped_hz : ndarray
+        Exact damped modal frequencies, ascending.
+    q : ndarray
+        Quality factor of each damped mode.
+    split_hz : float
+        ``frequencies_hz[1] - frequencies_hz[0]``.
+    snr_loss_db : float
+        ``10 log10(1 + 4 Q^2 mu^2)`` with the mean Q and ``mu = split / mean frequency``.
+    """
+
+    bias: list[float]
+    frequencies_hz: np.ndarray
+    damped_hz: np.ndarray
+    q: np.ndarray
+    split_hz: float
+    snr_loss_db: float
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-friendly form."""
+        return {
+            "bias": [float(b) for b in self.bias],
+            "frequencies_hz": [float(f) for f in self.frequencies_hz],
+            "damped_hz": [float(f) for f in self.damped_hz],
+            "q": [float(q) for q in self.q],
+            "split_hz": self.split_hz,
+            "snr_loss_db": self.snr_loss_db,
+        }
 
 
 def modal_analysis(

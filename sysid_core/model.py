@@ -35,7 +35,7 @@ from sysid_core.conic import sym
 from sysid_core.data import measured_mask, squared_potentials
 from sysid_core.errors import DataError, ModelError
 from sysid_core.io import atomic_write
-from sysid_core.modal import modal_analysis
+from sysid_core.modal import ModalReport, modal_analysis, snr_loss_db
 from sysid_core.problem import FitProblem, sigma_max_2x2
 from sysid_core.structures import ModelStructure
 
@@ -48,60 +48,13 @@ __all__ = [
     "DEFAULT_INPUTS",
     "DEFAULT_OUTPUTS",
     "FittedModel",
-    "ModalReport",
     "model_from_dataset",
     "model_from_problem",
-    "snr_loss_db",
 ]
 
 #: Channel names of a model whose data set did not name its channels.
 DEFAULT_OUTPUTS: tuple[str, str] = ("y1", "y2")
 DEFAULT_INPUTS: tuple[str, str] = ("u1", "u2")
-
-
-def snr_loss_db(split_hz: float, center_hz: float, q: float) -> float:
-    """SNR loss ``10 log10(1 + 4 Q^2 mu^2)`` in dB, ``mu = split / center`` (paper, Sec. I)."""
-    mu = split_hz / center_hz
-    return float(10 * np.log10(1 + 4 * q**2 * mu**2))
-
-
-@dataclass(frozen=True)
-class ModalReport:
-    """Modal figures of a model at one bias.
-
-    Attributes
-    ----------
-    bias : list of float
-        Bias potentials (volts relative to ground).
-    frequencies_hz : ndarray
-        Undamped modal frequencies (generalized eigenvalues of ``(K, M)``), ascending.
-    damped_hz : ndarray
-        Exact damped modal frequencies, ascending.
-    q : ndarray
-        Quality factor of each damped mode.
-    split_hz : float
-        ``frequencies_hz[1] - frequencies_hz[0]``.
-    snr_loss_db : float
-        ``10 log10(1 + 4 Q^2 mu^2)`` with the mean Q and ``mu = split / mean frequency``.
-    """
-
-    bias: list[float]
-    frequencies_hz: np.ndarray
-    damped_hz: np.ndarray
-    q: np.ndarray
-    split_hz: float
-    snr_loss_db: float
-
-    def as_dict(self) -> dict[str, Any]:
-        """JSON-friendly form."""
-        return {
-            "bias": [float(b) for b in self.bias],
-            "frequencies_hz": [float(f) for f in self.frequencies_hz],
-            "damped_hz": [float(f) for f in self.damped_hz],
-            "q": [float(q) for q in self.q],
-            "split_hz": self.split_hz,
-            "snr_loss_db": self.snr_loss_db,
-        }
 
 
 @dataclass
@@ -372,7 +325,6 @@ class FittedModel:
         return atomic_write(path, lambda tmp: ds.to_netcdf(tmp, engine="h5netcdf"))
 
 
-
 def _jsonable(obj: object) -> object:
     if isinstance(obj, np.ndarray):
         return obj.tolist()
@@ -406,9 +358,7 @@ def model_from_dataset(ds: xr.Dataset, structure: ModelStructure) -> FittedModel
     )
 
 
-def model_from_problem(
-    problem: FitProblem, result: ObjectiveResult, **meta: object
-) -> FittedModel:
+def model_from_problem(problem: FitProblem, result: ObjectiveResult, **meta: object) -> FittedModel:
     """Map an objective's scaled solution of ``problem`` back to physical units.
 
     The inverse of the scaling of :mod:`sysid_core.problem`. The model's channel names are the
@@ -423,10 +373,7 @@ def model_from_problem(
     m = sym(th[lay.M])
     c = s.omega0 * s.eps * sym(th[lay.C])
     kp = np.array(
-        [
-            s.omega0**2 * s.eps * sym(th[lay.K(p)]) / s.w_scale[p]
-            for p in range(lay.n_electrodes)
-        ]
+        [s.omega0**2 * s.eps * sym(th[lay.K(p)]) / s.w_scale[p] for p in range(lay.n_electrodes)]
     ).reshape(-1, 2, 2)
     k_center = s.omega0**2 * (m + s.eps * sym(th[lay.D]))
     k0 = k_center - np.tensordot(s.w_center, kp, axes=1) if len(kp) else k_center

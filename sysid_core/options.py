@@ -166,9 +166,7 @@ def check_options(
             if var_kw:
                 continue
             known = ", ".join(sorted(named)) or "none"
-            raise ConfigError(
-                f"unknown option {key!r} for {kind} {name!r}; known options: {known}"
-            )
+            raise ConfigError(f"unknown option {key!r} for {kind} {name!r}; known options: {known}")
         hint = _hint(factory, params[key])
         if not _matches(value, hint):
             raise ConfigError(

@@ -40,23 +40,23 @@ from sysid_core.config import PipelineConfig
 from sysid_core.data import (
     concat_experiments,
     experiment_from_measurement,
-    load_dataset,
-    save_dataset,
 )
-from sysid_core.errors import FitWarning, InvalidAnswerError, RunFolderError, UnreachableTuningError
+from sysid_core.device import Device
+from sysid_core.errors import FitWarning, UnreachableTuningError
+from sysid_core.evidence import WindowAssessment, assess_window
 from sysid_core.fit import fit
 from sysid_core.io import write_json
-from sysid_core.measuring import Device, GuardedDevice, check_bias
+from sysid_core.measuring import GuardedDevice, check_bias
 from sysid_core.model import FittedModel
 from sysid_core.objective import Progress
 from sysid_core.registry import Registry, get_registry
 from sysid_core.report import plot_bias_path, plot_iteration
-from sysid_core.run_summary import IterationRecord, RunSummary, Verification, status_line
+from sysid_core.run_summary import IterationRecord, RunSummary, status_line
 from sysid_core.runfolder import RunFolder
 from sysid_core.sweeps import SweepPlan, design_experiments
 from sysid_core.tuning import BiasSpace, Goal, TuningResult, frequencies_from_w
 from sysid_core.validation import check_rank_condition
-from sysid_core.verification import WindowAssessment, assess_window
+from sysid_core.verification import Verification, verify
 
 __all__ = ["TuningRun"]
 
@@ -139,41 +139,20 @@ class TuningRun:
 
     def _measure(self, bias: np.ndarray, freqs: np.ndarray, path: Path) -> xr.Dataset:
         """Read ``path`` if it holds this measurement (resume), else measure and save it first."""
-        if path.exists():
-            ds = load_dataset(path)
-            same_grid = ds.sizes["frequency"] == freqs.size and np.allclose(
-                ds["frequency"].values, freqs, rtol=0, atol=1e-9
+
+        def measure() -> xr.Dataset:
+            self.say(
+                f"measuring at [{', '.join(f'{b:.4f}' for b in bias)}] V, "
+                f"{freqs[0]:.3f}-{freqs[-1]:.3f} Hz, {freqs.size} points"
             )
-            if same_grid and np.allclose(ds["bias"].values[0], bias, rtol=0, atol=1e-12):
-                self.say(f"read {path.relative_to(self.out)} (measured earlier)")
-                self.measurements += 1
-                return ds
-            raise RunFolderError(
-                f"{path} holds a measurement at another bias or frequency grid than this run "
-                "needs now; the run cannot be resumed (start a new one in another --out)"
-            )
-        self.say(
-            f"measuring at [{', '.join(f'{b:.4f}' for b in bias)}] V, "
-            f"{freqs[0]:.3f}-{freqs[-1]:.3f} Hz, {freqs.size} points"
-        )
-        try:
             da = self.device.measure(bias, freqs)
-        except InvalidAnswerError as exc:
-            kept = self.folder.reject(
-                f"{path.parent.name}-{path.stem}", getattr(exc, "answer", None), str(exc)
+            return experiment_from_measurement(
+                da, bias, self.electrodes, self.space.structure_potential, self.config.device.name
             )
-            raise InvalidAnswerError(
-                f"{exc}; the answer is kept in {kept.parent} (not as a measurement), --resume "
-                "measures it again"
-            ) from None
-        ds = experiment_from_measurement(
-            da,
-            bias,
-            self.electrodes,
-            self.space.structure_potential,
-            device=self.config.device.name,
-        )
-        save_dataset(ds, path)  # saved before it is processed
+
+        ds, was_read = self.folder.read_or_measure(path, bias, freqs, measure)
+        if was_read:
+            self.say(f"read {path.relative_to(self.out)} (measured earlier)")
         self.measurements += 1
         return ds
 
@@ -216,51 +195,14 @@ class TuningRun:
     def _verify(
         self, bias: np.ndarray, predicted: TuningResult, model: FittedModel, folder: Path
     ) -> Verification:
-        """Step 4 with evidence (see the module docstring of :mod:`sysid_core.verification`)."""
-        plan = self.plan
-        rep = model.modal(bias[self.space.index])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            bw = np.asarray(rep.frequencies_hz) / np.asarray(rep.q)
-        bw_min = float(np.min(bw)) if np.all(np.isfinite(bw) & (bw > 0)) else np.inf
-        bw_max = float(np.max(bw)) if np.isfinite(bw_min) else 0.0
+        """Step 4 with evidence (:func:`sysid_core.verification.verify`)."""
 
-        def window(center: float, split: float) -> np.ndarray:
-            span = max(plan.verify_span_hz, 2 * split + 6 * bw_max)
-            return plan.window(center, span, min(plan.verify_resolution_hz, bw_min))
+        def sweep(
+            freqs: np.ndarray, name: str, band: bool
+        ) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
+            return self._sweep(bias, freqs, folder / name, band)
 
-        windows: list[WindowAssessment] = []
-        if predicted.split_hz < plan.verify_span_hz:
-            freqs = window(predicted.frequency_hz, predicted.split_hz)
-            sweep, vmodel, ev = self._sweep(bias, freqs, folder / "verify.nc", band=False)
-            windows.append(ev)
-            if ev.ok:
-                return Verification("verified", ev.frequencies_hz, windows, sweep, vmodel)
-            self.say(
-                "verification: the window around the predicted modes does not show both modes "
-                f"({ev.failures()}); sweeping the whole band to locate them"
-            )
-        else:  # far from a tuning even by the model: only locate the modes
-            self.say(
-                f"verification: predicted split {predicted.split_hz:.3g} Hz; sweeping the whole "
-                "band to locate the modes"
-            )
-        sweep, vmodel, ev = self._sweep(bias, plan.band(), folder / "verify-band.nc", band=True)
-        windows.append(ev)
-        if not ev.ok:
-            return Verification("failed", None, windows, sweep, vmodel)
-        located = ev.frequencies_hz
-        if ev.split_hz >= plan.verify_span_hz:
-            return Verification("located", located, windows, sweep, vmodel)
-        self.say(
-            f"verification: modes located near {located[0]:.3f} / {located[1]:.3f} Hz; "
-            "measuring a window around them"
-        )
-        freqs = window(ev.center_hz, ev.split_hz)
-        sweep2, vmodel2, ev2 = self._sweep(bias, freqs, folder / "verify-2.nc", band=False)
-        windows.append(ev2)
-        if ev2.ok:
-            return Verification("verified", ev2.frequencies_hz, windows, sweep2, vmodel2)
-        return Verification("located", located, windows, sweep, vmodel)
+        return verify(model.modal(bias[self.space.index]), predicted, self.plan, sweep, self.say)
 
     def _best_effort(
         self, exc: UnreachableTuningError, model: FittedModel, space: BiasSpace, it: int

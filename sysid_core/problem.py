@@ -53,6 +53,7 @@ EPS_DAMPING = 1e-8
 #: Strict inequality K(w_k) > 0 becomes K(w_k) ⪰ EPS_STIFFNESS·ω0²·I at every experiment's bias.
 EPS_STIFFNESS = 1e-6
 
+
 def sigma_max_2x2(e: np.ndarray) -> np.ndarray:
     """Largest singular value of each complex 2x2 matrix in ``e`` (shape ``(..., 2, 2)``)."""
     fro2 = np.sum(np.abs(e) ** 2, axis=(-2, -1))

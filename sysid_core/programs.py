@@ -38,8 +38,6 @@ __all__ = [
 SLACK_PER_POINT = 20
 
 
-
-
 def structural_constraints(
     problem: FitProblem, n_x: int
 ) -> tuple[sp.csr_matrix, np.ndarray, list[int]]:
@@ -66,6 +64,7 @@ def structural_constraints(
             a[3 * i : 3 * i + 3, sl] = mat
         b[3 * i : 3 * i + 3] = off
     return sp.csr_matrix(a), b, [2] * len(blocks)
+
 
 def minimax_rows(
     problem: FitProblem,
@@ -132,7 +131,6 @@ def minimax_rows(
     return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(36 * k, n_x))
 
 
-
 def _slack_count(problem: FitProblem, points: np.ndarray) -> int:
     return SLACK_PER_POINT * len(points)
 
@@ -161,7 +159,7 @@ def minimax_program(problem: FitProblem, points: np.ndarray) -> ConicProgram:
         A=sp.vstack([a_s, a_p], format="csc"),
         b=np.concatenate([b_s, np.zeros(a_p.shape[0])]),
         cones=ConeDims(psd=tuple(psd_s) + (8,) * len(points)),
-            )
+    )
 
 
 def least_squares_program(problem: FitProblem) -> ConicProgram:

@@ -20,8 +20,8 @@ import pluggy
 
 from sysid_core import hookspec
 from sysid_core.conic import Solver
+from sysid_core.device import Device, check_device
 from sysid_core.errors import PluginError, PluginNotFoundError
-from sysid_core.measuring import Device, check_device
 from sysid_core.objective import Objective
 from sysid_core.options import build
 from sysid_core.structures import ModelStructure

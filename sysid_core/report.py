@@ -191,8 +191,12 @@ def bias_path_figure(
     if (~known).any():
         bottom = np.nanmin(np.r_[mhz[known], acceptance_hz * 1e3 if acceptance_hz else 1.0])
         ax_s.semilogy(
-            it[~known], np.full((~known).sum(), max(bottom / 3, floor)), "x", ms=9,
-            color="tab:red", label="not verified (no split measured)",
+            it[~known],
+            np.full((~known).sum(), max(bottom / 3, floor)),
+            "x",
+            ms=9,
+            color="tab:red",
+            label="not verified (no split measured)",
         )
     if acceptance_hz is not None:
         ax_s.axhline(acceptance_hz * 1e3, color="tab:green", ls="--", label="acceptance")

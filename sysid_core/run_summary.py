@@ -9,69 +9,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-import xarray as xr
-
-from sysid_core.model import FittedModel
 from sysid_core.tuning import Goal
-from sysid_core.verification import WindowAssessment
+from sysid_core.verification import Verification
 
-__all__ = ["IterationRecord", "RunSummary", "Verification", "status_line"]
-
-
-@dataclass
-class Verification:
-    """What the verification of one iteration established.
-
-    Attributes
-    ----------
-    status : str
-        ``"verified"`` (a narrow window showed both modes: the split is measured),
-        ``"located"`` (only a whole-band sweep found them: the split is approximate) or
-        ``"failed"`` (no sweep showed both modes).
-    frequencies_hz : ndarray or None
-        The measured (or located) modal frequencies.
-    windows : list of WindowAssessment
-        Every sweep of the verification with its evidence.
-    sweep : xarray.Dataset
-        The last sweep.
-    model : FittedModel
-        The single-bias model of the last sweep.
-    """
-
-    status: str
-    frequencies_hz: np.ndarray | None
-    windows: list[WindowAssessment]
-    sweep: xr.Dataset
-    model: FittedModel
-
-    @property
-    def verified(self) -> bool:
-        """Both modes were seen in a narrow window."""
-        return self.status == "verified"
-
-    @property
-    def split_hz(self) -> float | None:
-        """The measured split, or None when no sweep showed both modes."""
-        f = self.frequencies_hz
-        return None if f is None else float(f[1] - f[0])
-
-    @property
-    def frequency_hz(self) -> float | None:
-        """Mean measured modal frequency, or None."""
-        return None if self.frequencies_hz is None else float(np.mean(self.frequencies_hz))
-
-    def describe(self) -> str:
-        """One line for people."""
-        if self.status == "verified":
-            return f"measured split {self.split_hz * 1e3:.3g} mHz at {self.frequency_hz:.3f} Hz"
-        if self.status == "located":
-            return (
-                f"modes located by a whole-band sweep near {self.frequencies_hz[0]:.2f} and "
-                f"{self.frequencies_hz[1]:.2f} Hz (split about {self.split_hz:.3g} Hz, not "
-                "verified by a narrow window)"
-            )
-        return "no sweep showed both modes: " + self.windows[-1].failures()
+__all__ = ["IterationRecord", "RunSummary", "status_line"]
 
 
 @dataclass
@@ -147,14 +88,11 @@ class RunSummary:
 def status_line(it: int, ver: Verification, goals: list[Goal], converged: bool) -> str:
     """One sentence on how a run stands after iteration ``it``."""
     if converged:
-        return (
-            f"converged after {it} iteration(s): {ver.describe()}; goals met: "
-            + ", ".join(str(g) for g in goals)
+        return f"converged after {it} iteration(s): {ver.describe()}; goals met: " + ", ".join(
+            str(g) for g in goals
         )
     if not ver.verified:
         return f"NOT converged after {it} iteration(s): not verified, {ver.describe()}"
-    return (
-        f"NOT converged after {it} iteration(s): {ver.describe()}; goals not met: "
-        + ", ".join(str(g) for g in goals if not g.met)
+    return f"NOT converged after {it} iteration(s): {ver.describe()}; goals not met: " + ", ".join(
+        str(g) for g in goals if not g.met
     )
-

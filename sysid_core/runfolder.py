@@ -4,21 +4,25 @@
   same configuration (its ``config.json``); a folder with other files is never written into.
 * While a process works in the folder it holds an exclusive lock on ``.sysid.lock`` (an OS
   file lock, released when the process ends, however it ends); a second process is refused.
-* A device answer that is not a valid measurement is kept in ``rejected/`` with the reason,
-  never as a measurement, so a resumed run measures it again.
+* :meth:`RunFolder.read_or_measure`: every measurement is saved before it is used; on resume
+  it is read back instead of measured again. A device answer that is not a valid measurement
+  is kept in ``rejected/`` with the reason, never as a measurement, so a resumed run measures
+  it again.
 """
 
 from __future__ import annotations
 
 import json
 import os
+from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
 import xarray as xr
 
-from sysid_core.errors import RunFolderError, RunLockedError
+from sysid_core.data import load_dataset, save_dataset
+from sysid_core.errors import InvalidAnswerError, RunFolderError, RunLockedError
 from sysid_core.io import atomic_write, write_json
 
 __all__ = ["RunFolder"]
@@ -145,6 +149,51 @@ class RunFolder:
 
     def __exit__(self, *exc: object) -> None:
         self.release()
+
+    # ------------------------------------------------------------------ measurements
+    def read_or_measure(
+        self,
+        path: Path,
+        bias: np.ndarray,
+        freqs: np.ndarray,
+        measure: Callable[[], xr.Dataset],
+    ) -> tuple[xr.Dataset, bool]:
+        """The measurement at ``path``: read back (resume) or ``measure()``-d and saved first.
+
+        Returns the one-experiment data set and whether it was read. A file at ``path`` at
+        another bias or grid is an error, never silently used. An answer that
+        :func:`~sysid_core.measuring.check_answer` rejected is kept aside (:meth:`reject`).
+
+        Raises
+        ------
+        RunFolderError
+            If ``path`` holds another measurement than this one.
+        InvalidAnswerError
+            If the device's answer is not a valid measurement (it is kept in ``rejected/``).
+        """
+        if path.exists():
+            ds = load_dataset(path)
+            same_grid = ds.sizes["frequency"] == freqs.size and np.allclose(
+                ds["frequency"].values, freqs, rtol=0, atol=1e-9
+            )
+            if same_grid and np.allclose(ds["bias"].values[0], bias, rtol=0, atol=1e-12):
+                return ds, True
+            raise RunFolderError(
+                f"{path} holds a measurement at another bias or frequency grid than this run "
+                "needs now; the run cannot be resumed (start a new one in another --out)"
+            )
+        try:
+            ds = measure()
+        except InvalidAnswerError as exc:
+            kept = self.reject(
+                f"{path.parent.name}-{path.stem}", getattr(exc, "answer", None), str(exc)
+            )
+            raise InvalidAnswerError(
+                f"{exc}; the answer is kept in {kept.parent} (not as a measurement), --resume "
+                "measures it again"
+            ) from None
+        save_dataset(ds, path)  # saved before it is processed
+        return ds, False
 
     # ------------------------------------------------------------------ rejected answers
     def reject(self, name: str, answer: object, reason: str) -> Path:

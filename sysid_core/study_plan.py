@@ -20,8 +20,8 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from sysid_core.config import PipelineConfig, _describe, parse_config, read_toml
+from sysid_core.device import Device
 from sysid_core.errors import ConfigError, PluginNotFoundError, SysidError
-from sysid_core.measuring import Device
 from sysid_core.registry import Registry
 
 __all__ = [

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from sysid_core.measuring import SimulatedDevice
+from sysid_core.device import SimulatedDevice
 from sysid_core.report import save_figure
 
 __all__ = ["plot_study", "true_split_map"]

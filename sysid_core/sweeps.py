@@ -118,12 +118,20 @@ class SweepPlan:
         if self.refine_span_hz > 0:
             span = min(self.refine_span_hz, hi - lo)
             sweeps.append(
-                ("refine_span_hz / refine_resolution_hz", "refine_resolution_hz", span,
-                 self.refine_resolution_hz)
+                (
+                    "refine_span_hz / refine_resolution_hz",
+                    "refine_resolution_hz",
+                    span,
+                    self.refine_resolution_hz,
+                )
             )
         sweeps.append(
-            ("verify_span_hz / verify_resolution_hz", "verify_resolution_hz",
-             self.verify_span_hz, self.verify_resolution_hz)
+            (
+                "verify_span_hz / verify_resolution_hz",
+                "verify_resolution_hz",
+                self.verify_span_hz,
+                self.verify_resolution_hz,
+            )
         )
         for what, key, span, step in sweeps:
             n = n_points(0.0, span, step)

@@ -61,8 +61,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from sysid_core.device import Device, check_device
 from sysid_core.errors import BiasLimitError, ConfigError
-from sysid_core.measuring import Device, check_answer, check_device
+from sysid_core.measuring import check_answer
 from sysid_core.options import build
 
 __all__ = ["DeviceContract"]

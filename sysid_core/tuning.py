@@ -44,6 +44,7 @@ def degenerate_w(
     Three linear equations (the entries of a symmetric 2x2) in ``(w_a, w_b, lam)``; the
     modal frequencies are then both ``sqrt(lam) / 2 pi``.
     """
+
     def entries(x: np.ndarray) -> np.ndarray:
         return np.array([x[0, 0], x[0, 1], x[1, 1]])
 

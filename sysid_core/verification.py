@@ -1,271 +1,152 @@
-"""Evidence that a verification sweep really measured both modes (paper Sec. II-D, step 4).
+"""Step 4 of the paper's loop, with evidence: verify a tuning by measuring at its bias.
 
-A single-bias model fitted to a sweep always reports two modal frequencies, even when the sweep
-holds no mode at all: over a window without resonance, or with one mode inside and the other
-far away, the fit invents modes (measured on the cloverleaf: a 1 Hz window 10 Hz from both modes
-gave a "split" of 34 mHz while the true split was 20.8 Hz). So a split counts as measured only
-with evidence, checked by :func:`assess_window`:
-
-``fit``
-    The single-bias model reproduces the data (relative response error at most
-    :data:`FIT_TOLERANCE`, :data:`BAND_FIT_TOLERANCE` over a whole-band sweep).
-``data peak``
-    The data themselves peak inside the window: the largest ``σ̄(ψ)`` is at an interior point
-    and at least :data:`PEAK_TO_EDGE` times ``σ̄(ψ)`` at either edge. A mode just outside the
-    window raises the edge next to it; a window without a mode has no peak.
-``modes inside``
-    Both fitted modes lie inside the window, at least ``max(5 % of the span, bandwidth)`` from
-    its edges (bandwidth ``f/Q``, the half-power width).
-``resolved``
-    The frequency step is at most each mode's bandwidth, so the sweep sees each peak's shape
-    (narrow windows only: a whole-band sweep only locates the modes).
-``observed``
-    Each mode's own peak, ``σ̄(residue)/|Re p|``, is at least :data:`MIN_CONTRIBUTION` of the
-    data's peak, and (narrow windows) the model's response nowhere exceeds
-    :data:`MAX_MODEL_PEAK` times the data's peak. An invented mode is either invisible or a
-    spike between the sampled points (seen: 98 times the data's peak at Q = 2e9).
-
-:func:`plan_windows` gives the order of sweeps: the window around the predicted modes; if it
-fails, the whole band, whose fit locates the modes; then, if they are close, a narrow window
-around the located modes. A split from a whole-band sweep is reported as *located* (coarse);
-only a narrow window that passes every check *verifies* a split.
+:func:`verify` runs the sweeps in order: the window around the predicted modes (skipped when
+the predicted split is wider than it); if it fails, the whole band, whose fit locates the modes;
+then, if they are close, a narrow window around the located modes. Each sweep is judged by
+:func:`sysid_core.evidence.assess_window`. A split from a whole-band sweep is reported as
+*located* (coarse); only a narrow window that passes every check *verifies* a split, and only a
+verified split can make a run converge.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 import xarray as xr
 
-from sysid_core.data import measured_mask
+from sysid_core.evidence import WindowAssessment
+from sysid_core.modal import ModalReport
+from sysid_core.model import FittedModel
+from sysid_core.objective import Progress
+from sysid_core.sweeps import SweepPlan
+from sysid_core.tuning import TuningResult
 
-if TYPE_CHECKING:
-    from sysid_core.model import FittedModel
+__all__ = ["Sweep", "Verification", "verify"]
 
-__all__ = [
-    "BAND_FIT_TOLERANCE",
-    "FIT_TOLERANCE",
-    "MAX_MODEL_PEAK",
-    "MIN_CONTRIBUTION",
-    "PEAK_TO_EDGE",
-    "Check",
-    "WindowAssessment",
-    "assess_window",
-    "mode_contributions",
-]
-
-#: Largest relative response error of the single-bias fit of a narrow window.
-FIT_TOLERANCE = 0.2
-#: Largest relative response error of the single-bias fit of a whole-band sweep.
-BAND_FIT_TOLERANCE = 0.35
-#: The data's peak must exceed the response at both window edges by this factor.
-PEAK_TO_EDGE = 3.0
-#: Each mode's own peak must be at least this fraction of the data's peak.
-MIN_CONTRIBUTION = 0.05
-#: The model's response must nowhere exceed the data's peak by more than this factor.
-MAX_MODEL_PEAK = 3.0
-
-
-@dataclass(frozen=True)
-class Check:
-    """One piece of evidence: its name, whether it passed, and the numbers behind it."""
-
-    name: str
-    passed: bool
-    detail: str
-
-    def as_dict(self) -> dict[str, Any]:
-        """JSON-friendly form."""
-        return {"name": self.name, "passed": self.passed, "detail": self.detail}
+#: Measures a sweep at the verified bias and fits it: ``(frequencies, file name, whole band?)``
+#: to ``(sweep, single-bias model, evidence)``.
+Sweep = Callable[[np.ndarray, str, bool], tuple[xr.Dataset, FittedModel, WindowAssessment]]
 
 
 @dataclass
-class WindowAssessment:
-    """What one sweep shows about the two modes.
+class Verification:
+    """What the verification of one iteration established.
 
     Attributes
     ----------
-    window_hz : (float, float)
-        First and last frequency of the sweep.
-    step_hz : float
-        Largest frequency step of the sweep.
-    band : bool
-        The sweep covers the whole band (it can locate the modes, not verify a split).
-    frequencies_hz : ndarray
-        The single-bias model's undamped modal frequencies, ascending.
-    bandwidth_hz : ndarray
-        Half-power bandwidth ``f/Q`` of each mode.
-    checks : list of Check
-        The evidence (see the module docstring).
+    status : str
+        ``"verified"`` (a narrow window showed both modes: the split is measured),
+        ``"located"`` (only a whole-band sweep found them: the split is approximate) or
+        ``"failed"`` (no sweep showed both modes).
+    frequencies_hz : ndarray or None
+        The measured (or located) modal frequencies.
+    windows : list of WindowAssessment
+        Every sweep of the verification with its evidence.
+    sweep : xarray.Dataset
+        The last sweep.
+    model : FittedModel
+        The single-bias model of the last sweep.
     """
 
-    window_hz: tuple[float, float]
-    step_hz: float
-    band: bool
-    frequencies_hz: np.ndarray
-    bandwidth_hz: np.ndarray
-    checks: list[Check] = field(default_factory=list)
+    status: str
+    frequencies_hz: np.ndarray | None
+    windows: list[WindowAssessment]
+    sweep: xr.Dataset
+    model: FittedModel
 
     @property
-    def ok(self) -> bool:
-        """Every check passed."""
-        return all(c.passed for c in self.checks)
+    def verified(self) -> bool:
+        """Both modes were seen in a narrow window."""
+        return self.status == "verified"
 
     @property
-    def split_hz(self) -> float:
-        """The fitted split (Hz)."""
-        return float(self.frequencies_hz[1] - self.frequencies_hz[0])
+    def split_hz(self) -> float | None:
+        """The measured split, or None when no sweep showed both modes."""
+        f = self.frequencies_hz
+        return None if f is None else float(f[1] - f[0])
 
     @property
-    def center_hz(self) -> float:
-        """Mean of the fitted modal frequencies (Hz)."""
-        return float(np.mean(self.frequencies_hz))
+    def frequency_hz(self) -> float | None:
+        """Mean measured modal frequency, or None."""
+        return None if self.frequencies_hz is None else float(np.mean(self.frequencies_hz))
 
-    def failures(self) -> str:
-        """The failed checks as one line."""
-        return "; ".join(f"{c.name}: {c.detail}" for c in self.checks if not c.passed)
-
-    def as_dict(self) -> dict[str, Any]:
-        """JSON-friendly form."""
-        return {
-            "window_hz": [float(x) for x in self.window_hz],
-            "step_hz": self.step_hz,
-            "band": self.band,
-            "frequencies_hz": [float(x) for x in self.frequencies_hz],
-            "bandwidth_hz": [float(x) for x in self.bandwidth_hz],
-            "ok": self.ok,
-            "checks": [c.as_dict() for c in self.checks],
-        }
+    def describe(self) -> str:
+        """One line for people."""
+        if self.status == "verified":
+            return f"measured split {self.split_hz * 1e3:.3g} mHz at {self.frequency_hz:.3f} Hz"
+        if self.status == "located":
+            return (
+                f"modes located by a whole-band sweep near {self.frequencies_hz[0]:.2f} and "
+                f"{self.frequencies_hz[1]:.2f} Hz (split about {self.split_hz:.3g} Hz, not "
+                "verified by a narrow window)"
+            )
+        return "no sweep showed both modes: " + self.windows[-1].failures()
 
 
-def mode_contributions(model: FittedModel, bias: Any = None) -> tuple[np.ndarray, np.ndarray]:
-    """Upper poles of ``model`` at ``bias`` and each mode's peak size ``σ̄(residue)/|Re p|``.
-
-    The residue of ``Z^-1`` at a simple pole ``p_i`` of the state matrix is the rank-one
-    ``[I 0] v_i w_i^T [0; M^-1]``; the model's response multiplies it by the polynomial ``P``
-    (left for output dynamics, right for input dynamics), evaluated at ``Im p_i``.
-
-    Returns
-    -------
-    poles : ndarray, complex, shape (2,)
-        The poles with positive imaginary part, ascending in frequency.
-    peaks : ndarray, shape (2,)
-        Each mode's response at its own resonance (response units).
-    """
-    m, c, k = model.M, model.C, model.stiffness(bias)
-    minv = np.linalg.inv(m)
-    a = np.block([[np.zeros((2, 2)), np.eye(2)], [-minv @ k, -minv @ c]])
-    lam, vec = np.linalg.eig(a)
-    left = np.linalg.inv(vec)
-    upper = np.argsort(lam.imag)[2:]
-    poles = lam[upper]
-    peaks = np.empty(2)
-    for j, i in enumerate(upper):
-        r = np.outer(vec[:2, i], left[i, 2:] @ minv)
-        p = model.polynomial(np.array([lam[i].imag]))[0]
-        res = p @ r if model.structure.side == "output" else r @ p
-        peaks[j] = np.linalg.norm(res, 2) / max(abs(lam[i].real), 1e-300)
-    return poles, peaks
-
-
-def _sigma(values: np.ndarray) -> np.ndarray:
-    return np.linalg.norm(values, ord=2, axis=(-2, -1))
-
-
-def assess_window(sweep: xr.Dataset, model: FittedModel, band: bool = False) -> WindowAssessment:
-    """The evidence that ``sweep`` (one experiment) holds both modes of its fit ``model``.
+def verify(
+    predicted_modes: ModalReport,
+    predicted: TuningResult,
+    plan: SweepPlan,
+    sweep: Sweep,
+    say: Progress,
+) -> Verification:
+    """Verify a tuning at its bias with evidence (see the module docstring).
 
     Parameters
     ----------
-    sweep : xarray.Dataset
-        A one-experiment data set (the verification sweep).
-    model : FittedModel
-        The single-bias model fitted to it (no electrodes).
-    band : bool
-        The sweep covers the whole band: it locates the modes, so the ``resolved`` check and
-        the model-peak bound are not applied, and the fit tolerance is looser.
+    predicted_modes : ModalReport
+        The identified model's modes at the bias (their bandwidths size the first window).
+    predicted : TuningResult
+        The criterion's answer (predicted frequencies and split).
+    plan : SweepPlan
+        The run's sweeps (span, resolution, band).
+    sweep : callable
+        Measures and fits one sweep (see :data:`Sweep`).
+    say : callable
+        Receives progress lines.
     """
-    mask = measured_mask(sweep)[0]
-    f = np.asarray(sweep["frequency"].values, dtype=float)[mask]
-    psi = np.asarray(sweep["response"].values[0])[mask]
-    lo, hi = float(f[0]), float(f[-1])
-    span = hi - lo
-    step = float(np.max(np.diff(f))) if f.size > 1 else span
-    rep = model.modal([])
-    modes = np.asarray(rep.frequencies_hz, dtype=float)
-    q = np.asarray(rep.q, dtype=float)
+    rep = predicted_modes
     with np.errstate(divide="ignore", invalid="ignore"):
-        bw = np.where(np.isfinite(q) & (q > 0), modes / q, np.inf)
-    checks: list[Check] = []
+        bw = np.asarray(rep.frequencies_hz) / np.asarray(rep.q)
+    bw_min = float(np.min(bw)) if np.all(np.isfinite(bw) & (bw > 0)) else np.inf
+    bw_max = float(np.max(bw)) if np.isfinite(bw_min) else 0.0
 
-    g = model.response(f, [])
-    rel = float(np.linalg.norm(g - psi) / max(np.linalg.norm(psi), 1e-300))
-    tol = BAND_FIT_TOLERANCE if band else FIT_TOLERANCE
-    checks.append(
-        Check("fit", rel <= tol, f"relative response error {rel:.3g} (limit {tol:g})")
-    )
+    def window(center: float, split: float) -> np.ndarray:
+        span = max(plan.verify_span_hz, 2 * split + 6 * bw_max)
+        return plan.window(center, span, min(plan.verify_resolution_hz, bw_min))
 
-    s = _sigma(psi)
-    i_pk = int(np.argmax(s))
-    peak = float(s[i_pk])
-    edges = (peak / max(float(s[0]), 1e-300), peak / max(float(s[-1]), 1e-300))
-    interior = 0 < i_pk < s.size - 1
-    checks.append(
-        Check(
-            "data peak",
-            interior and min(edges) >= PEAK_TO_EDGE,
-            f"largest response at {f[i_pk]:.4f} Hz, {edges[0]:.3g} and {edges[1]:.3g} times the "
-            f"response at the edges {lo:.4f} / {hi:.4f} Hz (need an interior peak and "
-            f">= {PEAK_TO_EDGE:g})",
+    windows: list[WindowAssessment] = []
+    if predicted.split_hz < plan.verify_span_hz:
+        freqs = window(predicted.frequency_hz, predicted.split_hz)
+        swept, vmodel, ev = sweep(freqs, "verify.nc", False)
+        windows.append(ev)
+        if ev.ok:
+            return Verification("verified", ev.frequencies_hz, windows, swept, vmodel)
+        say(
+            "verification: the window around the predicted modes does not show both modes "
+            f"({ev.failures()}); sweeping the whole band to locate them"
         )
+    else:  # far from a tuning even by the model: only locate the modes
+        say(
+            f"verification: predicted split {predicted.split_hz:.3g} Hz; sweeping the whole "
+            "band to locate the modes"
+        )
+    swept, vmodel, ev = sweep(plan.band(), "verify-band.nc", True)
+    windows.append(ev)
+    if not ev.ok:
+        return Verification("failed", None, windows, swept, vmodel)
+    located = ev.frequencies_hz
+    if ev.split_hz >= plan.verify_span_hz:
+        return Verification("located", located, windows, swept, vmodel)
+    say(
+        f"verification: modes located near {located[0]:.3f} / {located[1]:.3f} Hz; "
+        "measuring a window around them"
     )
-
-    margin = np.maximum(0.05 * span, bw)
-    inside = bool(np.all((modes - margin >= lo) & (modes + margin <= hi)))
-    checks.append(
-        Check(
-            "modes inside",
-            inside,
-            f"fitted modes {modes[0]:.4f} / {modes[1]:.4f} Hz (bandwidths "
-            f"{bw[0]:.3g} / {bw[1]:.3g} Hz) in the window {lo:.4f}-{hi:.4f} Hz",
-        )
-    )
-    if not band:
-        checks.append(
-            Check(
-                "resolved",
-                bool(np.all(step <= bw)),
-                f"frequency step {step:.3g} Hz against mode bandwidths {bw[0]:.3g} / "
-                f"{bw[1]:.3g} Hz (the step must not exceed them)",
-            )
-        )
-
-    poles, own = mode_contributions(model, [])
-    ratio = own / max(peak, 1e-300)
-    observed = bool(np.all(ratio >= MIN_CONTRIBUTION))
-    detail = (
-        f"each mode's own peak is {ratio[0]:.3g} / {ratio[1]:.3g} of the data's peak "
-        f"(need >= {MIN_CONTRIBUTION:g})"
-    )
-    if not band:
-        dense = np.union1d(
-            np.linspace(lo, hi, 10 * f.size),
-            np.clip(np.abs(poles.imag) / (2 * np.pi), lo, hi),
-        )
-        model_peak = float(_sigma(model.response(dense, [])).max()) / max(peak, 1e-300)
-        observed = observed and model_peak <= MAX_MODEL_PEAK
-        detail += (
-            f"; the model peaks at {model_peak:.3g} times the data's peak "
-            f"(limit {MAX_MODEL_PEAK:g})"
-        )
-    checks.append(Check("observed", observed, detail))
-    return WindowAssessment(
-        window_hz=(lo, hi),
-        step_hz=step,
-        band=band,
-        frequencies_hz=modes,
-        bandwidth_hz=bw,
-        checks=checks,
-    )
+    freqs = window(ev.center_hz, ev.split_hz)
+    swept2, vmodel2, ev2 = sweep(freqs, "verify-2.nc", False)
+    windows.append(ev2)
+    if ev2.ok:
+        return Verification("verified", ev2.frequencies_hz, windows, swept2, vmodel2)
+    return Verification("located", located, windows, swept, vmodel)

@@ -103,7 +103,5 @@ def environment() -> dict[str, str]:
     env.pop("SYSID_DISABLE_PLUGIN_AUTOLOAD", None)
     env.pop("SYSID_DEBUG", None)
     if _ROOT is not None:
-        env["PYTHONPATH"] = os.pathsep.join(
-            [str(_ROOT), *filter(None, [env.get("PYTHONPATH")])]
-        )
+        env["PYTHONPATH"] = os.pathsep.join([str(_ROOT), *filter(None, [env.get("PYTHONPATH")])])
     return env

@@ -132,8 +132,12 @@ def test_target_out_of_reach_is_not_claimed_and_the_modes_are_located(tmp_path: 
     cfg = parse_config(
         {
             "device": {"name": "cloverleaf", "seed": 1},
-            "tuning": {"criterion": "target", "target_hz": 4390.0, "max_iterations": 2,
-                       "acceptance_hz": 0.05},
+            "tuning": {
+                "criterion": "target",
+                "target_hz": 4390.0,
+                "max_iterations": 2,
+                "acceptance_hz": 0.05,
+            },
             "experiment": FAST,
         }
     )
@@ -183,7 +187,7 @@ def test_window_without_modes_is_not_evidence() -> None:
     from sysid_cloverleaf import CloverleafGyro
 
     from sysid_core.data import experiment_from_measurement
-    from sysid_core.verification import assess_window
+    from sysid_core.evidence import assess_window
 
     gyro = CloverleafGyro(seed=1)
 
@@ -212,8 +216,13 @@ def test_target_counts_only_with_its_frequency_error(tmp_path: Path) -> None:
     cfg = parse_config(
         {
             "device": {"name": "cloverleaf", "seed": 1},
-            "tuning": {"criterion": "target", "target_hz": 4430.0, "max_iterations": 1,
-                       "tolerance_hz": 1e-4, "acceptance_hz": 0.5},
+            "tuning": {
+                "criterion": "target",
+                "target_hz": 4430.0,
+                "max_iterations": 1,
+                "tolerance_hz": 1e-4,
+                "acceptance_hz": 0.5,
+            },
             "experiment": FAST,
         }
     )
@@ -286,8 +295,7 @@ def test_a_failure_is_one_line_and_exit_1(tmp_path: Path) -> None:
 def test_timed_out_device_does_not_keep_the_process_alive(tmp_path: Path) -> None:
     cfg = toml(
         tmp_path / "c.toml",
-        tables(device={"fault": "hang", "on_call": 2, "hang_s": 600},
-               experiment={"timeout_s": 2}),
+        tables(device={"fault": "hang", "on_call": 2, "hang_s": 600}, experiment={"timeout_s": 2}),
     )
     t0 = time.monotonic()
     done = sysid("tune", str(cfg), "--out", str(tmp_path / "run"), "--no-plots", timeout=60)
@@ -299,8 +307,7 @@ def test_timed_out_device_does_not_keep_the_process_alive(tmp_path: Path) -> Non
 
 def test_abandoned_call_cannot_write_into_the_run(tmp_path: Path) -> None:
     cfg = parse_config(
-        tables(device={"fault": "slow", "on_call": 2, "hang_s": 1.5},
-               experiment={"timeout_s": 0.3})
+        tables(device={"fault": "slow", "on_call": 2, "hang_s": 1.5}, experiment={"timeout_s": 0.3})
     )
     run = TuningRun(cfg, tmp_path / "run", plots=False)
     with pytest.raises(DeviceError, match=r"did not answer within 0\.3"):
@@ -376,8 +383,9 @@ def test_second_process_in_the_same_run_is_refused(tmp_path: Path) -> None:
 def test_files_keep_the_users_umask(tmp_path: Path, umask: int) -> None:
     data = tmp_path / "d.nc"
     data.write_bytes(EXAMPLE_DATA.read_bytes())
-    done = sysid("fit", str(data), "--out", str(tmp_path / "m.nc"),
-                 preexec_fn=lambda: os.umask(umask))
+    done = sysid(
+        "fit", str(data), "--out", str(tmp_path / "m.nc"), preexec_fn=lambda: os.umask(umask)
+    )
     assert done.returncode == 0, done.stderr
     assert stat.S_IMODE((tmp_path / "m.nc").stat().st_mode) == 0o666 & ~umask
 
@@ -394,14 +402,18 @@ def test_files_keep_the_users_umask(tmp_path: Path, umask: int) -> None:
         ({"solver": {"name": "scs", "max_iters": 2.5}}, "option 'max_iters' of solver 'scs'"),
         ({"objective": {"tie_tol": "x"}}, "option 'tie_tol' of objective"),
         ({"model": {"objective": "minimax"}}, "[model] objective has moved to [objective] name"),
-        ({"tuning": {"options": {"bias_tol": -1.0}, "criterion": "min-max-bias"}},
-         "option 'bias_tol' of tuning criterion 'min-max-bias' must be a finite number > 0"),
+        (
+            {"tuning": {"options": {"bias_tol": -1.0}, "criterion": "min-max-bias"}},
+            "option 'bias_tol' of tuning criterion 'min-max-bias' must be a finite number > 0",
+        ),
         ({"device": {"structure_potential": "abc"}}, "'structure_potential'"),
         ({"device": {"broken": "electrodes"}}, "'electrodes' must be a non-empty"),
         ({"device": {"broken": "limits"}}, "'bias_limits' must be two finite numbers"),
         ({"tuning": {"start_bias": [0.0, 20.0, 0.0]}}, "outside the device's limits"),
-        ({"tuning": {"target_hz": 4430.0, "criterion": "target", "tolerance_hz": -1}},
-         "tolerance_hz"),
+        (
+            {"tuning": {"target_hz": 4430.0, "criterion": "target", "tolerance_hz": -1}},
+            "tolerance_hz",
+        ),
     ],
 )
 def test_bad_settings_fail_before_measuring_and_leave_nothing(

@@ -9,8 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sysid_core import errors, fit, load_model
-from sysid_core.modal import modal_analysis
-from sysid_core.model import snr_loss_db
+from sysid_core.modal import modal_analysis, snr_loss_db
 
 
 @pytest.fixture(scope="module")

@@ -31,7 +31,16 @@ import numpy as np
 from sysid_cloverleaf import CloverleafGyro
 
 FAULTS = (
-    "none", "raise", "hang", "slow", "real", "zero", "nan", "frequencies", "shape", "labels",
+    "none",
+    "raise",
+    "hang",
+    "slow",
+    "real",
+    "zero",
+    "nan",
+    "frequencies",
+    "shape",
+    "labels",
     "type",
 )
 
@@ -114,5 +123,3 @@ class FaultyGyro(CloverleafGyro):
 
     def __repr__(self) -> str:
         return f"FaultyGyro(fault={self.fault!r}, on_call={self.on_call})"
-
-
