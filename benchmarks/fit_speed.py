@@ -38,6 +38,7 @@ import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -132,7 +133,8 @@ def run_method(method: str, ds: Any, warmup: bool = False) -> dict[str, Any]:
 
     With ``warmup`` SCS is capped at a few iterations (the warm-up only loads code).
     """
-    from reference import solve_reference
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from reference import solve_reference  # the cvxpy formulation (tests/reference.py)
     from sysid_models.structures import ActStructure
     from sysid_objectives.least_squares import LeastSquares
     from sysid_objectives.minimax import Minimax

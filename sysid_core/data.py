@@ -22,6 +22,7 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import xarray as xr
@@ -32,6 +33,9 @@ from sysid_core.errors import (
     MissingBiasError,
 )
 from sysid_core.io import atomic_write
+
+if TYPE_CHECKING:
+    import control
 
 __all__ = [
     "RESPONSE_DIMS",
@@ -134,7 +138,7 @@ def make_dataset(
 
 def experiment_from_measurement(
     measurement: xr.DataArray,
-    bias: Sequence[float],
+    bias: Sequence[float] | np.ndarray,
     electrodes: Sequence[str],
     structure_potential: float,
     device: str = "unknown",
@@ -214,7 +218,7 @@ def save_dataset(ds: xr.Dataset, path: str | os.PathLike[str]) -> Path:
         out[f"{name}_imag"] = ds[name].imag
         out[f"{name}_real"].attrs["sysid_complex"] = f"{name}: real part"
         out[f"{name}_imag"].attrs["sysid_complex"] = f"{name}: imaginary part"
-        out = out.drop_vars(name)
+        out = out.drop_vars([name])
     if "measured" in out:
         out["measured"] = out["measured"].astype("int8")
         out["measured"].attrs["sysid_bool"] = 1
@@ -246,7 +250,7 @@ def load_dataset(path: str | os.PathLike[str]) -> xr.Dataset:
     return ds
 
 
-def to_frd(ds: xr.Dataset, experiment: int = 0):  # -> control.FrequencyResponseData
+def to_frd(ds: xr.Dataset, experiment: int = 0) -> control.FrequencyResponseData:
     """One experiment as a :class:`control.FrequencyResponseData` (frequencies in rad/s)."""
     import control
 

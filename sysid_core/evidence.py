@@ -166,7 +166,7 @@ def assess_window(sweep: xr.Dataset, model: FittedModel, band: bool = False) -> 
     checks: list[Check] = []
 
     g = model.response(f, [])
-    rel = float(np.linalg.norm(g - psi) / max(np.linalg.norm(psi), 1e-300))
+    rel = float(np.linalg.norm(g - psi) / max(float(np.linalg.norm(psi)), 1e-300))
     tol = BAND_FIT_TOLERANCE if band else FIT_TOLERANCE
     checks.append(Check("fit", rel <= tol, f"relative response error {rel:.3g} (limit {tol:g})"))
 

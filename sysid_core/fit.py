@@ -11,7 +11,7 @@ import os
 import time
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import xarray as xr
@@ -32,10 +32,12 @@ __all__ = ["RESONANCE_RATIO", "check_fit", "fit", "load_model"]
 #: resonance (a narrow window beside the modes, or a disconnected sensor).
 RESONANCE_RATIO = 1.5
 
+_T = TypeVar("_T")
+
 
 def _component(
-    registry: Registry | None, value: Any, cls: type, what: str, kind: str, **options: Any
-) -> Any:
+    registry: Registry | None, value: Any, cls: type[_T], what: str, kind: str, **options: Any
+) -> _T:
     if isinstance(value, cls):
         return value
     if isinstance(value, str):
@@ -107,10 +109,24 @@ def fit(
     structure = _component(
         registry, structure, ModelStructure, "structure", "model structure", order=order
     )
+    # The ignores: mypy rejects an abstract class (Objective, Solver) as type[T]
+    # (python/mypy#4717); _component only isinstance()s it.
     objective = _component(
-        registry, objective, Objective, "objective", "objective", **(objective_options or {})
+        registry,
+        objective,
+        Objective,  # type: ignore[type-abstract]
+        "objective",
+        "objective",
+        **(objective_options or {}),
     )
-    solver = _component(registry, solver, Solver, "solver", "solver", **(solver_options or {}))
+    solver = _component(
+        registry,
+        solver,
+        Solver,  # type: ignore[type-abstract]
+        "solver",
+        "solver",
+        **(solver_options or {}),
+    )
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be callable, not {type(progress).__name__}")
     t0 = time.perf_counter()

@@ -74,7 +74,7 @@ def check_output_file(
     return path
 
 
-def atomic_write(path: str | os.PathLike[str], writer: Callable[[Path], None]) -> Path:
+def atomic_write(path: str | os.PathLike[str], writer: Callable[[Path], object]) -> Path:
     """Call ``writer(tmp_path)`` and move the result to ``path`` in one ``os.replace``.
 
     The temporary file lives in the destination directory (same file system) and is removed if

@@ -36,7 +36,7 @@ def ground_truth(device: object) -> SimulatedDevice | None:
     return raw if isinstance(raw, SimulatedDevice) else None
 
 
-def check_bias(device: Device, bias: Sequence[float]) -> np.ndarray:
+def check_bias(device: Device, bias: Sequence[float] | np.ndarray) -> np.ndarray:
     """The core's safety check: ``bias`` has one finite value per electrode, inside the limits.
 
     Raises
@@ -159,7 +159,9 @@ class GuardedDevice:
         self.labels: tuple[list[str], list[str]] | None = None
         self._abandoned: str | None = None
 
-    def measure(self, bias: Sequence[float], frequencies_hz: np.ndarray) -> xr.DataArray:
+    def measure(
+        self, bias: Sequence[float] | np.ndarray, frequencies_hz: np.ndarray
+    ) -> xr.DataArray:
         """Check ``bias``, measure, and check the answer.
 
         Raises

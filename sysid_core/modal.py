@@ -126,7 +126,9 @@ def principal_part(
     # States x and x'/w0: every entry of A is O(w0), so the poles are accurate to eps*w0
     # (with x' itself the O(w0^2) stiffness block costs about five digits of the damping).
     a = np.block([[np.zeros((2, 2)), w0 * np.eye(2)], [-minv @ k / w0, -minv @ c]])
-    t, q, n_upper = scipy.linalg.schur(
+    # scipy-stubs type ``sort`` only as the real form's (re, im) -> bool; with output="complex"
+    # scipy passes the one complex eigenvalue (its own docstring's example does this).
+    t, q, n_upper = scipy.linalg.schur(  # type: ignore[call-overload]
         a.astype(complex), output="complex", sort=lambda z: z.imag > 0
     )
     poles = np.diag(t)

@@ -14,6 +14,10 @@ frequency :math:`\\nu = (\\omega - \\omega_c)/h`. (The paper writes :math:`\\til
 :func:`model_from_dataset` reads what :meth:`FittedModel.to_dataset` wrote (loading a file by
 name needs the plugin registry: :func:`sysid_core.fit.load_model`). The exports to
 python-control live in :mod:`sysid_core.export`.
+
+Length: over the project's 300 lines because :class:`FittedModel` is the toolkit's central
+object, one class with an argument check on every public method; its exports, modal analysis
+and file loading are already in their own modules.
 """
 
 from __future__ import annotations
@@ -120,7 +124,7 @@ class FittedModel:
         """Number of bias electrodes."""
         return len(self.electrodes)
 
-    def check_bias(self, bias: Sequence[float] | None) -> np.ndarray:
+    def check_bias(self, bias: Sequence[float] | np.ndarray | None) -> np.ndarray:
         """``bias`` as a checked float array: numbers (else ``TypeError``), one per electrode
         (else :class:`DataError`), finite (else :class:`ModelError`)."""
         if bias is None:
@@ -183,7 +187,7 @@ class FittedModel:
             )
         return k
 
-    def squared_potentials(self, bias: Sequence[float] | None) -> np.ndarray:
+    def squared_potentials(self, bias: Sequence[float] | np.ndarray | None) -> np.ndarray:
         """``w_p = (v_gyro - dv_p)**2``."""
         return squared_potentials(self.structure_potential, self.check_bias(bias))
 
@@ -191,7 +195,7 @@ class FittedModel:
         """``K0 + sum_p K_p w_p`` for squared potentials ``w``."""
         return self.K0 + np.tensordot(np.asarray(w, dtype=float), self.Kp, axes=1)
 
-    def stiffness(self, bias: Sequence[float] | None = None) -> np.ndarray:
+    def stiffness(self, bias: Sequence[float] | np.ndarray | None = None) -> np.ndarray:
         """Total stiffness at ``bias`` (volts relative to ground)."""
         return self.stiffness_w(self.squared_potentials(bias))
 
@@ -201,13 +205,13 @@ class FittedModel:
         powers = nu[:, None] ** np.arange(self.poly.shape[0])[None, :]
         return np.tensordot(powers, self.poly, axes=1)
 
-    def z(self, omega: np.ndarray, bias: Sequence[float] | None = None) -> np.ndarray:
+    def z(self, omega: np.ndarray, bias: Sequence[float] | np.ndarray | None = None) -> np.ndarray:
         """``Z(j omega)`` at ``bias``, shape ``(N, 2, 2)``."""
         om = np.asarray(omega, dtype=float)[:, None, None]
         return -self.M * om**2 + self.stiffness(bias) + 1j * om * self.C
 
     def response(
-        self, frequencies_hz: np.ndarray, bias: Sequence[float] | None = None
+        self, frequencies_hz: np.ndarray, bias: Sequence[float] | np.ndarray | None = None
     ) -> np.ndarray:
         """Model frequency response ``(N, 2, 2)`` at ``bias`` and ``frequencies_hz``."""
         omega = 2 * np.pi * np.atleast_1d(np.asarray(frequencies_hz, dtype=float))
@@ -230,7 +234,7 @@ class FittedModel:
         return out
 
     # ------------------------------------------------------------------ modal figures
-    def modal(self, bias: Sequence[float] | None = None) -> ModalReport:
+    def modal(self, bias: Sequence[float] | np.ndarray | None = None) -> ModalReport:
         """Modal frequencies, split, Q and SNR loss at ``bias``.
 
         Raises
@@ -253,18 +257,18 @@ class FittedModel:
             snr_loss_db=snr_loss_db(split, float(undamped.mean()), float(np.mean(q))),
         )
 
-    def modal_frequencies_hz(self, bias: Sequence[float] | None = None) -> np.ndarray:
+    def modal_frequencies_hz(self, bias: Sequence[float] | np.ndarray | None = None) -> np.ndarray:
         """Undamped modal frequencies at ``bias`` (Hz), ascending."""
         return self.modal(bias).frequencies_hz
 
-    def split_hz(self, bias: Sequence[float] | None = None) -> float:
+    def split_hz(self, bias: Sequence[float] | np.ndarray | None = None) -> float:
         """Modal frequency split at ``bias`` (Hz)."""
         return self.modal(bias).split_hz
 
     # ------------------------------------------------------------------ python-control
     def to_statespace(
         self,
-        bias: Sequence[float] | None = None,
+        bias: Sequence[float] | np.ndarray | None = None,
         band_hz: tuple[float, float] | None = None,
         *,
         rtol: float = 1e-2,
@@ -279,7 +283,7 @@ class FittedModel:
     def to_frd(
         self,
         frequencies_hz: Sequence[float] | np.ndarray | None = None,
-        bias: Sequence[float] | None = None,
+        bias: Sequence[float] | np.ndarray | None = None,
     ) -> control.FrequencyResponseData:
         """The model's exact response at ``bias`` as a python-control FRD.
 
@@ -367,8 +371,12 @@ def model_from_problem(problem: FitProblem, result: ObjectiveResult, **meta: obj
     """
     self = problem
     coords = self.dataset.coords
-    outputs = coords["output"].values if "output" in coords else DEFAULT_OUTPUTS
-    inputs = coords["input"].values if "input" in coords else DEFAULT_INPUTS
+    outputs: np.ndarray | tuple[str, str] = (
+        coords["output"].values if "output" in coords else DEFAULT_OUTPUTS
+    )
+    inputs: np.ndarray | tuple[str, str] = (
+        coords["input"].values if "input" in coords else DEFAULT_INPUTS
+    )
     s, lay, th = self.scaling, self.layout, result.theta
     m = sym(th[lay.M])
     c = s.omega0 * s.eps * sym(th[lay.C])

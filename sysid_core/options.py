@@ -47,7 +47,7 @@ def _hint(factory: Callable[..., Any], param: inspect.Parameter) -> Any:
         return _NO_HINT
     if not isinstance(ann, str):
         return ann
-    target = factory.__init__ if inspect.isclass(factory) else factory  # type: ignore[misc]
+    target = factory.__init__ if inspect.isclass(factory) else factory
     module = sys.modules.get(getattr(target, "__module__", ""), None)
     namespace = {**vars(typing), **(vars(module) if module else {})}
     try:

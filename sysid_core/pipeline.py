@@ -24,6 +24,9 @@ measurement is checked (:mod:`sysid_core.measuring`) and written to the run fold
 (:mod:`sysid_core.runfolder`) before anything else is done with it. A run that stops can be
 continued with ``resume=True``: the loop is replayed and every measurement on disk is read
 instead of measured again.
+
+Length: a little over the project's 300 lines; it is the loop and its steps, each a short
+method, the steps' work being done in their own modules (sweeps, runfolder, fit, verification).
 """
 
 from __future__ import annotations

@@ -211,9 +211,9 @@ class FitProblem:
             sl = lay.poly(deg)
             nu_l = nu**deg
             for e in range(4):
-                r, c = divmod(e, 2)
-                g[:, r, c, sl.start + e] = nu_l
-                g[:, r, c, sl.start + 4 + e] = 1j * nu_l
+                r, col = divmod(e, 2)
+                g[:, r, col, sl.start + e] = nu_l
+                g[:, r, col, sl.start + 4 + e] = 1j * nu_l
         flat = g.reshape(n_pts, 4, lay.n)
         return np.ascontiguousarray(np.concatenate([flat.real, flat.imag], axis=1))
 

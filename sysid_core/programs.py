@@ -19,6 +19,8 @@ solves in about 8 iterations at every noise level.
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -195,9 +197,13 @@ def tie_break_program(
     a_s, b_s, psd_s = structural_constraints(problem, n_x)
     a_p = minimax_rows(problem, points, n_x, gamma_col=n, slack_col=n + 1)
     bound = sp.csr_matrix(([1.0], ([0], [n])), shape=(1, n_x))
-    p = sp.block_diag(
-        [2.0 * problem.gram / scale, sp.csc_matrix((n_x - n, n_x - n))],
-        format="csc",
+    # A csc_matrix: scipy returns a sparse array only when some block is one, and here the blocks
+    # are dense and csc_matrix; scipy-stubs cannot tell that from a mixed list.
+    p = cast(
+        "sp.csc_matrix",
+        sp.block_diag(
+            [2.0 * problem.gram / scale, sp.csc_matrix((n_x - n, n_x - n))], format="csc"
+        ),
     )
     return ConicProgram(
         c=np.zeros(n_x),

@@ -213,15 +213,18 @@ class Registry:
 
     def objective(self, name: str, /, **options: Any) -> Objective:
         """The fit objective ``name`` built with ``options``."""
-        return self._typed("objective", name, Objective, options)
+        # mypy rejects an abstract class as type[T] (python/mypy#4717); _typed only isinstance()s it
+        return self._typed("objective", name, Objective, options)  # type: ignore[type-abstract]
 
     def solver(self, name: str, /, **options: Any) -> Solver:
         """The solver backend ``name`` built with ``options``."""
-        return self._typed("solver", name, Solver, options)
+        # mypy rejects an abstract class as type[T] (python/mypy#4717); _typed only isinstance()s it
+        return self._typed("solver", name, Solver, options)  # type: ignore[type-abstract]
 
     def criterion(self, name: str, /, **options: Any) -> TuningCriterion:
         """The tuning criterion ``name`` built with ``options`` (``solver=``, ``target_hz=``...)."""
-        return self._typed("tuning criterion", name, TuningCriterion, options)
+        # mypy rejects an abstract class as type[T] (python/mypy#4717); _typed only isinstance()s it
+        return self._typed("tuning criterion", name, TuningCriterion, options)  # type: ignore[type-abstract]
 
     @staticmethod
     def _check_kind(kind: str) -> None:

@@ -122,7 +122,7 @@ def fit_figure(ds: xr.Dataset, model: FittedModel, title: str = "") -> Figure:
 def verification_figure(
     sweep: xr.Dataset,
     predicted: FittedModel,
-    bias: Sequence[float],
+    bias: Sequence[float] | np.ndarray,
     fitted: FittedModel,
     title: str = "",
 ) -> Figure:
@@ -184,7 +184,9 @@ def bias_path_figure(
     ax_b.legend(fontsize=8, ncols=2)
     it = np.arange(1, len(splits_hz) + 1)
     known = np.array([s is not None and np.isfinite(s) for s in splits_hz], dtype=bool)
-    mhz = np.array([s * 1e3 if k else np.nan for s, k in zip(splits_hz, known, strict=True)])
+    mhz = np.array(
+        [s * 1e3 if k and s is not None else np.nan for s, k in zip(splits_hz, known, strict=True)]
+    )
     floor = 1e-3
     if known.any():
         ax_s.semilogy(it[known], np.maximum(mhz[known], floor), "-o", label="measured split")
@@ -225,7 +227,7 @@ def plot_iteration(
     ds: xr.Dataset,
     model: FittedModel,
     ver: Verification,
-    tuned_bias: Sequence[float],
+    tuned_bias: Sequence[float] | np.ndarray,
     folder: str | os.PathLike[str],
 ) -> None:
     """An iteration's ``fit.png`` and ``verify.png`` in ``folder``."""

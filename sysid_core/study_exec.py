@@ -228,14 +228,14 @@ def execute(
                         record(_failure(spec, exc))
                     pending.clear()
                     break
-                spec = pending.pop(future.key, None)
-                if spec is None:
+                finished = pending.pop(future.key, None)
+                if finished is None:
                     continue
                 try:
-                    res = future.result()
+                    outcome = future.result()
                 except (Exception, asyncio.CancelledError) as exc:  # KilledWorker, cancelled
-                    res = _failure(spec, exc)
-                record(res)
+                    outcome = _failure(finished, exc)
+                record(outcome)
             for spec in pending.values():  # never reported back (should not happen)
                 record(_failure(spec, RuntimeError("the cluster never reported this run")))
         finally:

@@ -32,7 +32,8 @@ def true_split_map(
             if low <= x <= high and low <= y <= high:
                 bias = np.array(base_bias, dtype=float)
                 bias[tuned_index[0]], bias[tuned_index[1]] = x, y
-                f = device.true_modal_frequencies_hz(bias)
+                # a list: SimulatedDevice.true_modal_frequencies_hz takes a Sequence[float]
+                f = device.true_modal_frequencies_hz(bias.tolist())
                 split[i, j] = f[1] - f[0]
     return a, b, split
 

@@ -89,7 +89,7 @@ class SweepPlan:
         """The plan of an ``[experiment]`` table for a device with ``band_hz``, checked."""
         band = (float(device_band_hz[0]), float(device_band_hz[1]))
         return cls(
-            band_hz=tuple(exp.band_hz) if exp.band_hz is not None else band,
+            band_hz=exp.band_hz if exp.band_hz is not None else band,
             resolution_hz=exp.resolution_hz,
             refine_span_hz=exp.refine_span_hz,
             refine_resolution_hz=exp.refine_resolution_hz,

@@ -78,7 +78,7 @@ def check_rank_condition(
             resid = row - q @ (q.T @ row)
         else:
             resid = row
-        if np.linalg.norm(resid) > _RANK_TOL * max(np.linalg.norm(row), 1.0):
+        if np.linalg.norm(resid) > _RANK_TOL * max(float(np.linalg.norm(row)), 1.0):
             basis.append(row)
             kept.append(k)
         else:

@@ -74,13 +74,15 @@ class Verification:
 
     def describe(self) -> str:
         """One line for people."""
+        f, split = self.frequencies_hz, self.split_hz
         if self.status == "verified":
-            return f"measured split {self.split_hz * 1e3:.3g} mHz at {self.frequency_hz:.3f} Hz"
+            assert split is not None  # "verified" and "located" always come with frequencies
+            return f"measured split {split * 1e3:.3g} mHz at {self.frequency_hz:.3f} Hz"
         if self.status == "located":
+            assert f is not None
             return (
-                f"modes located by a whole-band sweep near {self.frequencies_hz[0]:.2f} and "
-                f"{self.frequencies_hz[1]:.2f} Hz (split about {self.split_hz:.3g} Hz, not "
-                "verified by a narrow window)"
+                f"modes located by a whole-band sweep near {f[0]:.2f} and {f[1]:.2f} Hz "
+                f"(split about {split:.3g} Hz, not verified by a narrow window)"
             )
         return "no sweep showed both modes: " + self.windows[-1].failures()
 

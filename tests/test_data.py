@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import xarray as xr
-from conftest import PAPER_BIASES, PAPER_FREQS, simulate
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
+from truths import PAPER_BIASES, PAPER_FREQS, V_GYRO, simulate
 
 from sysid_core import errors
 from sysid_core.data import concat_experiments, load_dataset, make_dataset, save_dataset, to_frd
@@ -98,12 +98,12 @@ def test_rank_condition_names_dependent_experiments():
     with pytest.raises(
         errors.RankConditionError, match=r"experiment 2 is a combination of experiments \[0, 1\]"
     ):
-        check_rank_condition([[0, 0], [1, 0], [2, 0]], 15.58, ["B1", "B2"])
+        check_rank_condition([[0, 0], [1, 0], [2, 0]], V_GYRO, ["B1", "B2"])
     with pytest.raises(errors.RankConditionError, match="B2 never changes"):
-        check_rank_condition([[0, 0], [1, 0], [2, 0]], 15.58, ["B1", "B2"])
+        check_rank_condition([[0, 0], [1, 0], [2, 0]], V_GYRO, ["B1", "B2"])
     # A repeated experiment is allowed when the others already satisfy the condition.
-    check_rank_condition([[0, 0], [1, 0], [0, 1], [0, 0]], 15.58)
-    check_rank_condition(PAPER_BIASES, 15.58)  # the paper's design is fine
+    check_rank_condition([[0, 0], [1, 0], [0, 1], [0, 0]], V_GYRO)
+    check_rank_condition(PAPER_BIASES, V_GYRO)  # the paper's design is fine
 
 
 def test_rank_condition_sign_symmetry():
@@ -128,7 +128,7 @@ def test_round_trip_exact(tmp_path, ds):
 def test_round_trip_per_experiment_grids(tmp_path, in_class_truth):
     grids = [PAPER_FREQS, PAPER_FREQS[::3], PAPER_FREQS[1::2]]
     resp = [in_class_truth.response(b, g) for b, g in zip(PAPER_BIASES, grids, strict=True)]
-    ds = make_dataset(resp, grids, PAPER_BIASES, ["B1", "B2"], 15.58)
+    ds = make_dataset(resp, grids, PAPER_BIASES, ["B1", "B2"], V_GYRO)
     back = load_dataset(save_dataset(ds, tmp_path / "grids.nc"))
     xr.testing.assert_identical(back, ds)
     assert back["measured"].dtype == bool

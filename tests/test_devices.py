@@ -12,7 +12,7 @@ from sysid_simgyro.physics import differential_phase_deg
 from sysid_core.errors import BiasLimitError, ConfigError
 from sysid_core.options import build
 from sysid_core.registry import Registry
-from sysid_core.tuning import degenerate_w
+from sysid_core.tuning import degenerate_bias as core_degenerate_bias
 
 TWO_PI = 2 * np.pi
 LSB = 20.0 / 2**16
@@ -33,15 +33,9 @@ def ideal_cloverleaf(**options: object) -> CloverleafGyro:
 def degenerate_bias(device: SimulatedGyro, pair: tuple[int, int]) -> tuple[np.ndarray, float]:
     """Solve K(w) = λ M for the squared potentials of ``pair`` (others at 0 V): (bias, f Hz)."""
     truth = device.truth
-    a, b = pair
-    w_rest = truth.squared_potentials(np.zeros(truth.n_electrodes))
-    base = truth.K0 + sum(
-        w_rest[p] * truth.Kp[p] for p in range(truth.n_electrodes) if p not in pair
-    )
-    wa, wb, lam = degenerate_w(base, truth.Kp[a], truth.Kp[b], truth.M)
-    bias = np.zeros(truth.n_electrodes)
-    bias[a] = truth.structure_potential - np.sqrt(wa)
-    bias[b] = truth.structure_potential - np.sqrt(wb)
+    bias = core_degenerate_bias(truth.K0, truth.Kp, truth.M, truth.structure_potential, pair)
+    # K(w) = lam M there: lam is the mean generalized eigenvalue of (K(w), M)
+    lam = np.linalg.eigvals(np.linalg.solve(truth.M, truth.stiffness(bias))).real.mean()
     return bias, float(np.sqrt(lam) / TWO_PI)
 
 
@@ -64,20 +58,28 @@ def test_cloverleaf_native_modes_match_calibration() -> None:
     np.testing.assert_allclose(q, [47216, 56445], rtol=1e-4)
 
 
+def _rotation(angle_deg: float) -> np.ndarray:
+    a = np.radians(angle_deg)
+    return np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+
+
 def test_cloverleaf_matrices_match_calibration_table() -> None:
+    """The truth is the calibration (``CloverleafParameters``) through the documented formulas
+    (docs/cloverleaf.md), written out here independently of ``sysid_simgyro.physics``."""
+    params = CloverleafParameters()
     truth = CloverleafGyro().truth
-    np.testing.assert_allclose(
-        truth.K0 / TWO_PI**2, [[19706390.62, 21303.38], [21303.38, 19724860.06]], atol=1e-6
-    )
-    table = [
-        [[-11464.16, 0.0], [0.0, -573.21]],
-        [[-7635.31, -6908.14], [-6908.14, -7635.31]],
-        [[-591.98, 100.48], [100.48, -11820.66]],
-    ]
-    # The table rounds theta_3; the formula with 90.51 deg is within 0.6 (rad/s)^2/V^2 of it.
-    np.testing.assert_allclose(truth.Kp, table, atol=0.6)
-    np.testing.assert_allclose(truth.C, [[0.502227, 0.066914], [0.066914, 0.579493]], atol=1e-6)
-    np.testing.assert_allclose(truth.R, [[0.97, 0.23], [-0.15, 1.04]])
+    np.testing.assert_allclose(truth.K0 / TWO_PI**2, params.k0_hz2, rtol=1e-12, atol=1e-6)
+    # K_p = -(2 pi)^2 g_p (n_p n_p^T + minor m_p m_p^T), n_p at angle theta_p, m_p its normal
+    table = []
+    for g, theta in zip(params.electrode_gains_hz2, params.electrode_angles_deg, strict=True):
+        n, m = _rotation(theta).T
+        table.append(-(TWO_PI**2) * g * (np.outer(n, n) + params.minor * np.outer(m, m)))
+    np.testing.assert_allclose(truth.Kp, table, rtol=1e-12, atol=1e-9)
+    # C = omega_ref U diag(1/Q1, 1/Q2) U^T, U the rotation by the damping axis
+    u = _rotation(params.damping_axis_deg)
+    c = TWO_PI * params.omega_ref_hz * u @ np.diag(1.0 / np.asarray(params.q)) @ u.T
+    np.testing.assert_allclose(truth.C, c, rtol=1e-12)
+    np.testing.assert_allclose(truth.R, params.pickoff)
     for kp in truth.Kp:
         assert np.linalg.eigvalsh(kp).max() <= 0.0
     assert np.linalg.eigvalsh(truth.K0).min() > 0.0

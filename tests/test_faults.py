@@ -193,7 +193,8 @@ def test_window_without_modes_is_not_evidence() -> None:
 
     def assess(bias: list[float], lo: float, hi: float, n: int, band: bool = False):
         f = np.linspace(lo, hi, n)
-        ds = experiment_from_measurement(gyro.measure(bias, f), bias, list(gyro.electrodes), 15.58)
+        v_gyro = gyro.structure_potential
+        ds = experiment_from_measurement(gyro.measure(bias, f), bias, list(gyro.electrodes), v_gyro)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", FitWarning)  # not the subject here
             model = fit(ds.isel(electrode=[]), "act", 1)

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import PAPER_FREQS, simulate
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from truths import PAPER_FREQS, cloverleaf_truth, simulate
 
 from sysid_core import errors, fit, load_model
 from sysid_core.modal import modal_analysis, snr_loss_db
@@ -14,15 +14,11 @@ from sysid_core.modal import modal_analysis, snr_loss_db
 
 @pytest.fixture(scope="module")
 def model(request):
-    from conftest import cloverleaf_truth
-
     return fit(simulate(cloverleaf_truth(), noise_rel=1e-4, seed=11), "act", 1)
 
 
 @pytest.fixture(scope="module")
 def sen_model():
-    from conftest import cloverleaf_truth
-
     return fit(simulate(cloverleaf_truth(), noise_rel=1e-4, seed=12), "sen", 2)
 
 
@@ -110,8 +106,6 @@ def test_modal_frequencies_invariant_to_common_scaling(model, b1, b2, scale):
 
 
 def test_equation_error_matches_gamma(model):
-    from conftest import cloverleaf_truth
-
     ds = simulate(cloverleaf_truth(), noise_rel=1e-4, seed=11)
     e = model.equation_error(ds)
     assert e.shape == (3, 121)

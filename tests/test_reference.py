@@ -1,6 +1,6 @@
 """Cross-checks of the hand-assembled conic programs against the cvxpy reference formulation.
 
-:mod:`sysid_core.reference` writes the equation errors and constraints with named cvxpy variables
+``tests/reference.py`` writes the equation errors and constraints with named cvxpy variables
 from the scaled data, never from ``FitProblem.G``; here the two must agree:
 
 * the equation errors at a random ``theta`` (no solve: checks the operator ``G`` entry by entry);
@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import PAPER_BIASES, cloverleaf_truth, simulate
 from reference import (
     least_squares_reference,
     minimax_reference,
@@ -28,12 +27,12 @@ from sysid_models.structures import ActStructure, SenStructure
 from sysid_objectives.least_squares import LeastSquares
 from sysid_objectives.minimax import Minimax
 from sysid_solvers.clarabel_backend import ClarabelSolver
+from truths import CLOVERLEAF, OUTPUT_LOWPASS, PAPER_BIASES, cloverleaf_truth, simulate
 
 from sysid_core.errors import SolverError
 from sysid_core.problem import FitProblem, sigma_max_2x2
-from sysid_core.simulation import LowPass
 
-FREQS = np.linspace(4385.0, 4445.0, 11)
+FREQS = np.linspace(*CLOVERLEAF.band_hz, 11)
 STRUCTURES = {"act": ActStructure, "sen": SenStructure}
 CASES = [("act", 1), ("sen", 1), ("act", 0), ("act", 2)]
 #: The least-squares optimum is O(1e-5) in scaled units: the reference's solver needs absolute
@@ -43,7 +42,7 @@ TIGHT = {"tol_gap_abs": 1e-12, "tol_gap_rel": 1e-12}
 
 @pytest.fixture(scope="module")
 def dataset():
-    truth = cloverleaf_truth(h_out=LowPass((20000.0, 18470.0), (1.0, 0.97)))
+    truth = cloverleaf_truth(h_out=OUTPUT_LOWPASS)
     return simulate(truth, PAPER_BIASES, FREQS, noise_rel=1e-3, noise_peak=1e-4, seed=11)
 
 

@@ -1,0 +1,549 @@
+"""The architecture of ``sysid_core``: one-way layers, no cvxpy at run time, one registry per run.
+
+* No import cycle anywhere in ``sysid_core``, counting imports inside functions and under
+  ``if TYPE_CHECKING:`` (a static graph from ``ast``; the cycle finder is tested on its own).
+* ``import sysid_core`` and a full ``sysid tune`` of the README example never import cvxpy (the
+  reference formulation is test-only).
+* A run's components come from the registry it is given, with the options of its configuration
+  file: a third-party criterion's own option and the solver's options reach them, and a run
+  through a registry of test plugins never touches the process-wide registry.
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+import pytest
+import sysid_cloverleaf.plugin
+import sysid_criteria.plugin
+import sysid_models.plugin
+import sysid_objectives.plugin
+import sysid_solvers.plugin
+import xarray as xr
+from sysid_cloverleaf import CloverleafGyro
+from sysid_criteria.criteria import Degenerate
+from sysid_models.structures import ActStructure
+from sysid_objectives.minimax import Minimax
+from sysid_solvers.clarabel_backend import ClarabelSolver
+
+import sysid_core
+import sysid_core.registry
+from sysid_core.config import load_config
+from sysid_core.conic import Solver
+from sysid_core.errors import ConfigError
+from sysid_core.hookspec import hookimpl
+from sysid_core.model import FittedModel
+from sysid_core.pipeline import TuningRun
+from sysid_core.registry import Registry
+from sysid_core.run_summary import RunSummary
+from sysid_core.tuning import BiasSpace, TuningResult
+
+ROOT = Path(__file__).resolve().parents[1]
+CORE = Path(sysid_core.__file__).resolve().parent
+README_EXAMPLE = ROOT / "examples" / "cloverleaf-2electrode.toml"
+
+
+# =============================================================== import graph and cycle finder
+def module_names(package_dir: Path, package: str) -> dict[str, Path]:
+    """Every module of a flat package: ``{"pkg": __init__.py, "pkg.mod": mod.py, ...}``."""
+    names = {}
+    for path in sorted(package_dir.glob("*.py")):
+        names[package if path.stem == "__init__" else f"{package}.{path.stem}"] = path
+    return names
+
+
+def _owner(name: str, known: Iterable[str]) -> str | None:
+    """The longest known module that ``name`` is or lies in (``None``: outside the package)."""
+    matches = [k for k in known if name == k or name.startswith(k + ".")]
+    return max(matches, key=len) if matches else None
+
+
+def _is_main_guard(node: ast.AST) -> bool:
+    """``if __name__ == "__main__":`` (either operand order)."""
+    if not (isinstance(node, ast.If) and isinstance(node.test, ast.Compare)):
+        return False
+    test = node.test
+    if len(test.ops) != 1 or not isinstance(test.ops[0], ast.Eq):
+        return False
+    sides = [test.left, test.comparators[0]]
+    names = [s.id for s in sides if isinstance(s, ast.Name)]
+    constants = [s.value for s in sides if isinstance(s, ast.Constant)]
+    return names == ["__name__"] and constants == ["__main__"]
+
+
+def _walk_as_imported(tree: ast.AST) -> Iterable[ast.AST]:
+    """Every node of ``tree`` (like ``ast.walk``) except the bodies of ``__main__`` guards.
+
+    Code under ``if __name__ == "__main__":`` runs only when the file is the script, i.e. as
+    module ``__main__``: its imports are not edges of the package's module.
+    """
+    todo = [tree]
+    while todo:
+        node = todo.pop()
+        yield node
+        if _is_main_guard(node):
+            assert isinstance(node, ast.If)
+            todo.extend(node.orelse)
+            continue
+        todo.extend(ast.iter_child_nodes(node))
+
+
+def imports_of(path: Path, module: str, package: str, known: set[str]) -> set[str]:
+    """The package's modules that ``module`` imports, at any depth of its syntax tree.
+
+    Every node is visited: imports at the top, inside functions and methods, under
+    ``if TYPE_CHECKING:``, in ``try`` blocks (not under a ``__main__`` guard, see
+    :func:`_walk_as_imported`). ``from pkg import x`` is an edge to ``pkg.x`` when ``x`` is a
+    module, else to ``pkg`` (its ``__init__``); relative imports are resolved.
+    """
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    is_init = path.stem == "__init__"
+    found: set[str] = set()
+    for node in _walk_as_imported(tree):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                owner = _owner(alias.name, known)
+                if owner is not None:
+                    found.add(owner)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                parts = module.split(".") if is_init else module.split(".")[:-1]
+                parts = parts[: len(parts) - (node.level - 1)]
+                base = ".".join([*parts, *([node.module] if node.module else [])])
+            if _owner(base, known) is None:
+                continue
+            for alias in node.names:
+                owner = _owner(f"{base}.{alias.name}", known)
+                if owner is not None:
+                    found.add(owner)
+    return found
+
+
+def import_graph(package_dir: Path, package: str) -> dict[str, set[str]]:
+    """``{module: {modules it imports}}`` over the package's own modules."""
+    modules = module_names(package_dir, package)
+    known = set(modules)
+    return {name: imports_of(path, name, package, known) for name, path in modules.items()}
+
+
+def find_cycles(graph: Mapping[str, Iterable[str]]) -> list[list[str]]:
+    """One cycle ``[a, b, ..., a]`` per strongly connected component of 2+ nodes or self-loop.
+
+    Tarjan's algorithm finds the components; in each, a shortest cycle through its first node
+    (alphabetically) names it. Sorted, so the answer is deterministic.
+    """
+    edges = {node: sorted(set(targets)) for node, targets in graph.items()}
+    for targets in list(edges.values()):
+        for t in targets:
+            edges.setdefault(t, [])
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    components: list[list[str]] = []
+
+    def strongconnect(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in edges[v]:
+            if w not in index:
+                strongconnect(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            components.append(sorted(component))
+
+    for v in sorted(edges):
+        if v not in index:
+            strongconnect(v)
+
+    cycles = []
+    for component in components:
+        start = component[0]
+        if len(component) == 1 and start not in edges[start]:
+            continue
+        members = set(component)
+        # breadth-first from start's successors back to start, inside the component
+        previous: dict[str, str] = {}
+        frontier = [start]
+        end = None
+        while frontier and end is None:
+            nxt = []
+            for v in frontier:
+                for w in edges[v]:
+                    if w == start:
+                        end = v
+                        break
+                    if w in members and w not in previous:
+                        previous[w] = v
+                        nxt.append(w)
+                if end is not None:
+                    break
+            frontier = nxt
+        assert end is not None  # a strongly connected component always closes
+        path = [start]
+        v = end
+        while v != start:
+            path.insert(1, v)
+            v = previous[v]
+        cycles.append([*path, start])
+    return sorted(cycles)
+
+
+def check_acyclic(graph: Mapping[str, Iterable[str]], what: str) -> None:
+    """Fail naming every cycle of ``graph``."""
+    cycles = find_cycles(graph)
+    if cycles:
+        named = "; ".join(" -> ".join(c) for c in cycles)
+        raise AssertionError(f"import cycle(s) in {what}: {named}")
+
+
+@pytest.mark.parametrize(
+    ("graph", "expected"),
+    [
+        ({}, []),
+        ({"a": ["b", "c"], "b": ["c"], "c": [], "d": ["a"]}, []),  # a DAG, diamond included
+        ({"a": ["a"]}, [["a", "a"]]),  # a self-loop
+        ({"a": ["b"], "b": ["a"]}, [["a", "b", "a"]]),
+        (
+            # a 3-cycle with a chord and a tail into it, a self-loop, an edge to an unknown node
+            {"e": ["a"], "a": ["b"], "b": ["c", "x"], "c": ["a", "b"], "d": ["d"]},
+            [["a", "b", "c", "a"], ["d", "d"]],
+        ),
+        (
+            # two components joined one way only: two cycles, not one
+            {"a": ["b"], "b": ["a", "c"], "c": ["d"], "d": ["c"]},
+            [["a", "b", "a"], ["c", "d", "c"]],
+        ),
+        ({"a": ["c"], "b": ["a"], "c": ["b", "d"], "d": []}, [["a", "c", "b", "a"]]),
+    ],
+    ids=["empty", "dag", "self-loop", "two", "three-and-self", "two-components", "order"],
+)
+def test_cycle_finder_on_small_graphs(
+    graph: dict[str, list[str]], expected: list[list[str]]
+) -> None:
+    assert find_cycles(graph) == expected
+
+
+def test_cycle_check_fails_naming_the_cycle() -> None:
+    check_acyclic({"p.a": ["p.b"], "p.b": ["p.c"], "p.c": []}, "p")
+    message = r"import cycle\(s\) in p: p\.a -> p\.b -> p\.c -> p\.a"
+    with pytest.raises(AssertionError, match=message):
+        check_acyclic({"p.a": ["p.b"], "p.b": ["p.c"], "p.c": ["p.a"]}, "p")
+
+
+def test_import_collector_counts_every_depth(tmp_path: Path) -> None:
+    """A cycle closed only by a function-level and a TYPE_CHECKING import is still a cycle."""
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("from pkg.a import A\n")
+    (pkg / "a.py").write_text("from pkg import b\nA = 1\n")
+    (pkg / "b.py").write_text("def f():\n    from pkg.c import C\n    return C\n")
+    (pkg / "c.py").write_text(
+        "from typing import TYPE_CHECKING\n\nif TYPE_CHECKING:\n    import pkg.a\nC = 2\n"
+    )
+    (pkg / "d.py").write_text("from . import c\nfrom .a import A\nimport os\nimport pkgx.a\n")
+    (pkg / "e.py").write_text("class K:\n    def m(self):\n        from pkg import A\n")
+    # A script's own import of itself under a __main__ guard is module __main__'s, not an edge;
+    # the else branch of the guard runs on import and counts; so does a self-import elsewhere.
+    (pkg / "f.py").write_text(
+        "if __name__ == '__main__':\n    from pkg.f import g\nelse:\n    import pkg.d\n"
+    )
+    (pkg / "g.py").write_text("try:\n    from pkg.g import x\nexcept ImportError:\n    x = 0\n")
+    graph = import_graph(pkg, "pkg")
+    assert graph == {
+        "pkg": {"pkg.a"},
+        "pkg.a": {"pkg.b"},
+        "pkg.b": {"pkg.c"},
+        "pkg.c": {"pkg.a"},
+        "pkg.d": {"pkg.a", "pkg.c"},
+        "pkg.e": {"pkg"},
+        "pkg.f": {"pkg.d"},
+        "pkg.g": {"pkg.g"},
+    }
+    assert find_cycles(graph) == [["pkg.a", "pkg.b", "pkg.c", "pkg.a"], ["pkg.g", "pkg.g"]]
+
+
+def test_sysid_core_has_no_import_cycle() -> None:
+    graph = import_graph(CORE, "sysid_core")
+    assert len(graph) >= 40  # every module of the package was parsed
+    assert "sysid_core.registry" in graph["sysid_core.pipeline"]  # the graph has edges
+    check_acyclic(graph, "sysid_core")
+
+
+# ============================================================= cvxpy is for the tests only
+def _python(code: str, cwd: Path) -> dict[str, Any]:
+    """Run ``code`` in a fresh interpreter (every built-in plugin, none of the tests'); the
+    last line it prints is JSON."""
+    env = dict(os.environ)
+    env.pop("SYSID_DISABLE_PLUGIN_AUTOLOAD", None)
+    env["MPLBACKEND"] = "Agg"
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_cvxpy_is_installed_for_these_checks() -> None:
+    # Otherwise the two checks below would pass for the wrong reason.
+    assert importlib.util.find_spec("cvxpy") is not None
+
+
+def test_import_sysid_core_does_not_import_cvxpy(tmp_path: Path) -> None:
+    code = (
+        "import json, sys\n"
+        "import sysid_core\n"
+        "print(json.dumps({'cvxpy': 'cvxpy' in sys.modules, 'core': 'sysid_core' in sys.modules}))"
+    )
+    assert _python(code, tmp_path) == {"cvxpy": False, "core": True}
+
+
+def test_readme_tune_does_not_import_cvxpy(tmp_path: Path) -> None:
+    """``sysid tune examples/cloverleaf-2electrode.toml`` end to end (about 5 s)."""
+    out = tmp_path / "run"
+    code = (
+        "import json, sys\n"
+        "from sysid_core.cli import main\n"
+        f"code = main(['tune', {str(README_EXAMPLE)!r}, '--out', {str(out)!r}, '--no-plots'])\n"
+        "print(json.dumps({'code': code, 'cvxpy': 'cvxpy' in sys.modules}))"
+    )
+    assert _python(code, ROOT) == {"code": 0, "cvxpy": False}
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["converged"] is True
+    assert (out / "iter01" / "model.nc").exists()
+
+
+# ======================================================== components from the run's registry
+class MarginCriterion(Degenerate):
+    """A third party's criterion with an option of its own (``margin``); tunes like degenerate."""
+
+    name: ClassVar[str] = "test-margin"
+    description: ClassVar[str] = "degenerate modes, with a margin option"
+    solved: ClassVar[list[MarginCriterion]] = []
+
+    def __init__(self, *, solver: Solver, margin: float = 0.0, tolerance_hz: float = 1e-3) -> None:
+        super().__init__(solver=solver, tolerance_hz=tolerance_hz)
+        self.margin = margin
+
+    def solve(self, model: FittedModel, space: BiasSpace) -> TuningResult:
+        MarginCriterion.solved.append(self)
+        return super().solve(model, space)
+
+
+class _ThirdPartyCriterion:
+    @hookimpl
+    def sysid_tuning_criteria(self):
+        return {MarginCriterion.name: MarginCriterion}
+
+
+BUILTIN_PLUGINS = {
+    "models": sysid_models.plugin,
+    "objectives": sysid_objectives.plugin,
+    "solvers": sysid_solvers.plugin,
+    "criteria": sysid_criteria.plugin,
+    "cloverleaf": sysid_cloverleaf.plugin,
+}
+
+
+def builtins_and_margin() -> Registry:
+    """The built-in plugin modules registered by hand, and the third-party criterion."""
+    registry = Registry(autoload=False)
+    for name, module in BUILTIN_PLUGINS.items():
+        registry.register(module, name=name)
+    registry.register(_ThirdPartyCriterion(), name="margin-criterion", distribution="tests")
+    return registry
+
+
+MARGIN_CONFIG = """
+[device]
+name = "{device}"
+
+[model]
+structure = "act"
+order = 1
+
+[solver]
+name = "clarabel"
+tol_gap_rel = 1e-9
+
+[tuning]
+criterion = "test-margin"
+electrodes = ["B1", "B2"]
+start_bias = [0.0, 0.0, 0.0]
+max_iterations = {max_iterations}
+
+[tuning.options]
+{option} = 0.25
+
+[experiment]
+resolution_hz = 1.0
+verify_resolution_hz = 0.02
+"""
+
+
+def margin_config(
+    tmp_path: Path, device: str = "cloverleaf", option: str = "margin", max_iterations: int = 4
+) -> Path:
+    """A configuration file choosing the third-party criterion, with the reduced sweeps."""
+    path = tmp_path / "margin.toml"
+    text = MARGIN_CONFIG.format(device=device, option=option, max_iterations=max_iterations)
+    path.write_text(text)
+    return path
+
+
+def test_criterion_and_solver_options_from_the_file_reach_the_components(tmp_path: Path) -> None:
+    cfg = load_config(margin_config(tmp_path))
+    run = TuningRun(cfg, tmp_path / "out", registry=builtins_and_margin(), plots=False)
+    assert isinstance(run.criterion, MarginCriterion)
+    assert run.criterion.margin == 0.25
+    assert run.criterion.solver is run.solver  # the run's solver, with the [solver] options
+    assert isinstance(run.solver, ClarabelSolver)
+    assert run.solver.options["tol_gap_rel"] == 1e-9
+    assert run.measurements == 0  # building a run measures nothing ...
+    assert not (tmp_path / "out").exists()  # ... and writes nothing
+
+
+def test_unknown_criterion_option_is_a_config_error_naming_it(tmp_path: Path) -> None:
+    path = margin_config(tmp_path, option="marginn")
+    with pytest.raises(ConfigError, match=r"'marginn'.*'test-margin'"):
+        TuningRun(load_config(path), tmp_path / "out", registry=builtins_and_margin())
+
+
+# ------------------------------------------------------------------ no global registry
+class ArchCloverleaf(CloverleafGyro):
+    """The cloverleaf under a name that only the test registry provides; records its work."""
+
+    name: ClassVar[str] = "arch-cloverleaf"
+    instances: ClassVar[list[ArchCloverleaf]] = []
+
+    def __init__(self, **options: Any) -> None:
+        super().__init__(**options)
+        self.calls = 0
+        ArchCloverleaf.instances.append(self)
+
+    def measure(self, bias, frequencies_hz) -> xr.DataArray:
+        self.calls += 1
+        return super().measure(bias, frequencies_hz)
+
+
+class _OnlyTestPlugins:
+    """Every component of a run from one test plugin (the global registry has no arch-*)."""
+
+    @hookimpl
+    def sysid_devices(self):
+        return {ArchCloverleaf.name: ArchCloverleaf}
+
+    @hookimpl
+    def sysid_model_structures(self):
+        return {"act": ActStructure}
+
+    @hookimpl
+    def sysid_objectives(self):
+        return {"minimax": Minimax}
+
+    @hookimpl
+    def sysid_solvers(self):
+        return {"clarabel": ClarabelSolver}
+
+    @hookimpl
+    def sysid_tuning_criteria(self):
+        return {MarginCriterion.name: MarginCriterion}
+
+
+def _modules_importing_get_registry() -> list[str]:
+    """The core's modules that bind ``get_registry`` at import time (grep, by ``ast``)."""
+    found = []
+    for name, path in module_names(CORE, "sysid_core").items():
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for node in tree.body:
+            if isinstance(node, ast.ImportFrom) and any(
+                a.name == "get_registry" for a in node.names
+            ):
+                found.append(name)
+    return found
+
+
+@pytest.fixture
+def no_global_registry(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """Every way to the process-wide registry fails the test (and is recorded).
+
+    ``get_registry`` is replaced in ``sysid_core.registry`` (function-level imports find it
+    there) and in every loaded module that imported it by name; ``_REGISTRY`` becomes an object
+    that fails on any use; loading entry points (what a new default ``Registry()`` does) fails.
+    """
+    calls: list[str] = []
+
+    def fail(what: str) -> None:
+        calls.append(what)
+        pytest.fail(f"{what}: the run used the process-wide registry", pytrace=True)
+
+    class Poison:
+        def __getattr__(self, attribute: str) -> Any:
+            fail(f"_REGISTRY.{attribute}")
+
+    original = sysid_core.registry.get_registry
+    importers = _modules_importing_get_registry()
+    assert {"sysid_core", "sysid_core.fit", "sysid_core.pipeline"} <= set(importers)
+    for name in importers:
+        importlib.import_module(name)
+    patched = []
+    for name, module in list(sys.modules.items()):
+        if not name.startswith("sysid") or module is None:
+            continue
+        for attribute, value in list(vars(module).items()):
+            if value is original:
+                monkeypatch.setattr(module, attribute, lambda: fail("get_registry()"))
+                patched.append(f"{name}.{attribute}")
+    assert set(importers) <= {p.rsplit(".", 1)[0] for p in patched}
+    monkeypatch.setattr(sysid_core.registry, "_REGISTRY", Poison())
+    monkeypatch.setattr(
+        Registry, "load_entry_points", lambda self, eps: fail("Registry.load_entry_points()")
+    )
+    return calls
+
+
+def test_run_with_its_own_registry_uses_no_global(
+    tmp_path: Path, no_global_registry: list[str]
+) -> None:
+    registry = Registry(autoload=False)
+    registry.register(_OnlyTestPlugins(), name="only-test-plugins", distribution="tests")
+    cfg = load_config(margin_config(tmp_path, device=ArchCloverleaf.name, max_iterations=1))
+    ArchCloverleaf.instances.clear()
+    MarginCriterion.solved.clear()
+
+    run = TuningRun(cfg, tmp_path / "out", registry=registry, plots=False)
+    summary = run.run()
+
+    assert isinstance(summary, RunSummary) and summary.iterations == 1
+    assert summary.experiments >= 3
+    assert [d.calls > 0 for d in ArchCloverleaf.instances] == [True]  # built by the registry
+    assert MarginCriterion.solved == [run.criterion]  # its criterion tuned
+    assert np.all(np.abs(summary.bias) <= 10.0)
+    assert no_global_registry == []

@@ -1,0 +1,84 @@
+"""Synthetic truths for the tests (in the model class and out of it), and data sets from them.
+
+Every calibration figure is read from the cloverleaf's parameter set
+(:class:`sysid_cloverleaf.CloverleafParameters`), never copied here: a change of the calibration
+reaches the tests, and the tests' known figures (published biases, frequencies) check it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from sysid_cloverleaf import CloverleafParameters
+
+from sysid_core.data import make_dataset
+from sysid_core.simulation import GyroTruth, LowPass
+
+__all__ = [
+    "CLOVERLEAF",
+    "OUTPUT_LOWPASS",
+    "PAPER_BIASES",
+    "PAPER_FREQS",
+    "PICKOFF",
+    "TWO_PI",
+    "V_GYRO",
+    "cloverleaf_truth",
+    "simulate",
+]
+
+#: The cloverleaf's calibration (``docs/cloverleaf.md``).
+CLOVERLEAF = CloverleafParameters()
+TWO_PI = 2 * np.pi
+V_GYRO = CLOVERLEAF.structure_potential
+#: The paper's three experiments (B1, B2) and its measurement band, 121 points.
+PAPER_BIASES = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+PAPER_FREQS = np.linspace(*CLOVERLEAF.band_hz, 121)
+#: The cloverleaf's pick-off signal conditioning: channel 2 lags by 1 degree at 4430 Hz.
+OUTPUT_LOWPASS = CLOVERLEAF.output_lowpass()
+#: The cloverleaf's pick-off matrix ``R`` (non-collocation).
+PICKOFF = np.asarray(CLOVERLEAF.pickoff, dtype=float)
+
+
+def cloverleaf_truth(
+    h_out: LowPass | None = None,
+    h_in: LowPass | None = None,
+    R: np.ndarray | None = None,
+    B: np.ndarray | None = None,
+) -> GyroTruth:
+    """A two-electrode gyro like the paper's: B1 and B2, B3 held at 0 V and folded into K0."""
+    kp = CLOVERLEAF.electrode_stiffness()
+    held = CLOVERLEAF.electrodes.index("B3")
+    tuned = [p for p in range(len(CLOVERLEAF.electrodes)) if p != held]
+    return GyroTruth(
+        M=np.eye(2),
+        C=CLOVERLEAF.damping(),
+        K0=CLOVERLEAF.stiffness() + kp[held] * V_GYRO**2,  # (v_gyro - 0 V)**2
+        Kp=kp[tuned],
+        structure_potential=V_GYRO,
+        electrodes=tuple(CLOVERLEAF.electrodes[p] for p in tuned),
+        R=PICKOFF if R is None else R,
+        B=np.eye(2) if B is None else B,
+        velocity_pickoff=CLOVERLEAF.velocity_pickoff,
+        h_out=h_out,
+        h_in=h_in,
+    )
+
+
+def simulate(
+    truth: GyroTruth,
+    biases: np.ndarray = PAPER_BIASES,
+    freqs: np.ndarray = PAPER_FREQS,
+    noise_rel: float = 0.0,
+    noise_peak: float = 0.0,
+    seed: int = 0,
+):
+    """Data set from ``truth`` with complex noise relative to each point and to the peak."""
+    rng = np.random.default_rng(seed)
+    responses = []
+    for b in biases:
+        r = truth.response(b, freqs)
+        scale = noise_rel * np.abs(r) + noise_peak * np.abs(r).max()
+        z = (rng.standard_normal(r.shape) + 1j * rng.standard_normal(r.shape)) / np.sqrt(2)
+        responses.append(r + scale * z)
+    return make_dataset(
+        responses, freqs, biases, list(truth.electrodes), truth.structure_potential, device="truth"
+    )
