@@ -12,6 +12,7 @@ from sysid_core.hookspec import hookimpl, hookspec
 from sysid_core.interfaces import Device, ModelStructure, Objective, Solver, TuningCriterion
 from sysid_core.model import FittedModel
 from sysid_core.registry import Registry, get_registry
+from sysid_core.runs import tune
 from sysid_core.validation import check_rank_condition, validate
 
 __version__ = "0.1.0"
@@ -36,5 +37,6 @@ __all__ = [
     "make_dataset",
     "save_dataset",
     "to_frd",
+    "tune",
     "validate",
 ]

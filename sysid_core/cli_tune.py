@@ -21,7 +21,10 @@ def tune_cmd(
     resume: Annotated[
         bool, typer.Option("--resume", help="Continue the run in --out without re-measuring.")
     ] = False,
-    no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip the PNG report.")] = False,
+    no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip the plots.")] = False,
+    plot_format: Annotated[
+        str, typer.Option("--plot-format", help="Plots as png (default), pdf or svg.")
+    ] = "png",
 ) -> None:
     """Tune a gyro: identify, compute the biases, verify, iterate (paper Sec. II-D).
 
@@ -42,7 +45,14 @@ def tune_cmd(
             if not as_json:
                 err.print(f"[dim]{time.strftime('%H:%M:%S')}[/dim] {message}", highlight=False)
 
-        run = TuningRun(cfg, target, resume=resume, progress=progress, plots=not no_plots)
+        run = TuningRun(
+            cfg,
+            target,
+            resume=resume,
+            progress=progress,
+            plots=not no_plots,
+            plot_format=plot_format,
+        )
         try:
             summary = run.run()
         except KeyboardInterrupt:
@@ -60,7 +70,9 @@ def tune_cmd(
                 f"{e} = {b:.4f} V" for e, b in zip(summary.electrodes, summary.bias, strict=True)
             )
         )
-        out.print(f"results and plots in {target}/ (summary.json, bias_path.png, iterNN/)")
+        out.print(
+            f"results and plots in {target}/ (summary.json, bias_path.{plot_format}, iterNN/)"
+        )
     if not summary.converged:
         raise NotConvergedError(
             f"{summary.status}; results in {target}/ (run again with more [tuning] "

@@ -45,7 +45,7 @@ from sysid_core.data import (
     experiment_from_measurement,
 )
 from sysid_core.device import Device
-from sysid_core.errors import FitWarning, UnreachableTuningError
+from sysid_core.errors import ConfigError, FitWarning, UnreachableTuningError
 from sysid_core.evidence import WindowAssessment, assess_window
 from sysid_core.fit import fit
 from sysid_core.io import write_json
@@ -53,7 +53,7 @@ from sysid_core.measuring import GuardedDevice, check_bias
 from sysid_core.model import FittedModel
 from sysid_core.objective import Progress
 from sysid_core.registry import Registry, get_registry
-from sysid_core.report import plot_bias_path, plot_iteration
+from sysid_core.report import PLOT_FORMATS, plot_bias_path, plot_iteration
 from sysid_core.run_summary import IterationRecord, RunSummary, status_line
 from sysid_core.runfolder import RunFolder
 from sysid_core.sweeps import SweepPlan, design_experiments
@@ -87,7 +87,9 @@ class TuningRun:
     registry : Registry, optional
         Where plugins are looked up (default: the process-wide registry).
     plots : bool
-        Write the PNG report (default true).
+        Write the plots (default true).
+    plot_format : str
+        Their format: ``png`` (default), ``pdf`` or ``svg``.
     """
 
     def __init__(
@@ -99,6 +101,7 @@ class TuningRun:
         device: Device | None = None,
         registry: Registry | None = None,
         plots: bool = True,
+        plot_format: str = "png",
     ) -> None:
         self.config = config
         self.out = Path(out)
@@ -106,6 +109,11 @@ class TuningRun:
         self.say = progress or (lambda _m: None)
         self.registry = registry or get_registry()
         self.plots = plots
+        if plot_format not in PLOT_FORMATS:
+            raise ConfigError(
+                f"plot format {plot_format!r} is not one of {', '.join(PLOT_FORMATS)}"
+            )
+        self.plot_format = plot_format
         # Every component is built now, from this run's registry, so that a bad option fails
         # before anything is measured; the fits and the criterion use these very objects.
         parts = build_components(config, self.registry, device)
@@ -313,7 +321,9 @@ class TuningRun:
             )
             converged = ver.verified and all(g.met for g in goals)
             if self.plots:
-                plot_iteration(it, ds, model, ver, new_bias[self.space.index], folder)
+                plot_iteration(
+                    it, ds, model, ver, new_bias[self.space.index], folder, self.plot_format
+                )
             bias = new_bias
             path.append(bias.tolist())
             history.append(
@@ -349,7 +359,7 @@ class TuningRun:
                     path,
                     [h.measured_split_hz for h in history],
                     self.electrodes,
-                    self.out / "bias_path.png",
+                    self.out / f"bias_path.{self.plot_format}",
                     self.space.limits,
                     acceptance_hz=cfg.acceptance_hz,
                 )

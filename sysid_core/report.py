@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from sysid_core.run_summary import Verification
 
 __all__ = [
+    "PLOT_FORMATS",
     "bias_path_figure",
     "fit_figure",
     "plot_bias_path",
@@ -52,10 +53,18 @@ def _figure(rows: int, cols: int, size: tuple[float, float]) -> Figure:
     return fig
 
 
+#: Formats :func:`save_figure` writes, by file extension.
+PLOT_FORMATS = ("png", "pdf", "svg")
+
+
 def save_figure(fig: Figure, path: str | os.PathLike[str]) -> Path:
-    """Write ``fig`` as a PNG at ``path`` (atomically: the old file or the complete new one)."""
+    """Write ``fig`` at ``path`` in the format of its extension (:data:`PLOT_FORMATS`),
+    atomically (the old file or the complete new one)."""
+    fmt = Path(path).suffix.lstrip(".").lower() or "png"
+    if fmt not in PLOT_FORMATS:
+        raise ValueError(f"cannot write a plot as {fmt!r}; use one of {', '.join(PLOT_FORMATS)}")
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
+    fig.savefig(buf, format=fmt, dpi=110)
     data = buf.getvalue()
     return atomic_write(path, lambda tmp: tmp.write_bytes(data))
 
@@ -114,7 +123,14 @@ def fit_figure(ds: xr.Dataset, model: FittedModel, title: str = "") -> Figure:
     for ax in axes[-2:]:
         ax.set_xlabel("frequency [Hz]")
     _plain_frequency_axes(axes)
-    axes[0].legend(fontsize=7, title="bias", title_fontsize=7)
+    from matplotlib.lines import Line2D
+
+    handles, _ = axes[0].get_legend_handles_labels()
+    handles += [
+        Line2D([], [], ls="none", marker="o", mfc="none", color="0.35", label="markers: data"),
+        Line2D([], [], color="0.35", label="lines: model"),
+    ]
+    axes[0].legend(handles=handles, fontsize=7, title="bias", title_fontsize=7)
     fig.suptitle(title or "identified model (lines) and data (markers)")
     return fig
 
@@ -229,11 +245,16 @@ def plot_iteration(
     ver: Verification,
     tuned_bias: Sequence[float] | np.ndarray,
     folder: str | os.PathLike[str],
+    fmt: str = "png",
 ) -> None:
-    """An iteration's ``fit.png`` and ``verify.png`` in ``folder``."""
+    """An iteration's ``fit.<fmt>`` and ``verify.<fmt>`` in ``folder``."""
     folder = Path(folder)
-    title = f"iteration {it}: {model.structure.name} model, gamma = {model.gamma:.3g}"
-    save_figure(fit_figure(ds, model, title), folder / "fit.png")
+    units = str(ds.attrs.get("response_units", "") or "response units")
+    title = (
+        f"iteration {it}: {model.structure.name} model fitted to {ds.sizes['experiment']} "
+        f"experiments, residual γ = {model.gamma:.3g} ({units})·(rad/s)²"
+    )
+    save_figure(fit_figure(ds, model, title), folder / f"fit.{fmt}")
     save_figure(
         verification_figure(
             ver.sweep.isel(electrode=[]),
@@ -242,5 +263,5 @@ def plot_iteration(
             ver.model,
             f"iteration {it} verification ({ver.status}): {ver.describe()}",
         ),
-        folder / "verify.png",
+        folder / f"verify.{fmt}",
     )

@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from sysid_core.tuning import Goal
@@ -63,6 +64,21 @@ class RunSummary:
     history: list[IterationRecord] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     out: str = ""
+
+    @property
+    def paths(self) -> dict[str, Any]:
+        """The run's files: ``out``, ``summary``, ``config``, ``bias_path`` (the plot, if
+        written, in whichever format) and ``iterations`` (one folder per iteration, holding its
+        measurements, model and plots)."""
+        out = Path(self.out)
+        plots = sorted(out.glob("bias_path.*"))
+        return {
+            "out": out,
+            "summary": out / "summary.json",
+            "config": out / "config.json",
+            "bias_path": plots[0] if plots else None,
+            "iterations": [out / f"iter{r.iteration:02d}" for r in self.history],
+        }
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-friendly form."""
