@@ -8,7 +8,7 @@ read the TRUE split from it, which a tuning never sees.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from numbers import Real
 from typing import Any, Protocol, runtime_checkable
 
@@ -17,7 +17,7 @@ import xarray as xr
 
 from sysid_core.errors import DeviceError
 
-__all__ = ["Device", "SimulatedDevice", "check_device"]
+__all__ = ["Device", "ReportsProgress", "SimulatedDevice", "check_device"]
 
 
 @runtime_checkable
@@ -75,6 +75,18 @@ def _pair(value: Any) -> tuple[float, float] | None:
     if not (_is_real(a) and _is_real(b) and math.isfinite(a) and math.isfinite(b)):
         return None
     return float(a), float(b)
+
+
+@runtime_checkable
+class ReportsProgress(Protocol):
+    """A device that says what it is doing (optional): the run hands it its progress callback.
+
+    For example the ``exchange`` device says which biases to set and which file to write.
+    """
+
+    def set_progress(self, say: Callable[[str], None]) -> None:
+        """Receive the callback that prints the run's progress lines."""
+        ...
 
 
 def check_device(device: object, name: str = "device") -> Device:

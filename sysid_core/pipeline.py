@@ -44,7 +44,7 @@ from sysid_core.data import (
     concat_experiments,
     experiment_from_measurement,
 )
-from sysid_core.device import Device
+from sysid_core.device import Device, ReportsProgress
 from sysid_core.errors import ConfigError, FitWarning, UnreachableTuningError
 from sysid_core.evidence import WindowAssessment, assess_window
 from sysid_core.fit import fit
@@ -120,6 +120,8 @@ class TuningRun:
         self.structure, self.objective = parts.structure, parts.objective
         self.solver, self.criterion = parts.solver, parts.criterion
         self.device = GuardedDevice(parts.device, config.device.name, config.experiment.timeout_s)
+        if isinstance(parts.device, ReportsProgress):
+            parts.device.set_progress(self.say)
         dev = parts.device
         self.electrodes = [str(e) for e in dev.electrodes]
         start = config.tuning.start_bias

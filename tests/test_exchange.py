@@ -1,0 +1,177 @@
+"""The ``exchange`` device, answered by the example operator in a background process.
+
+The operator (``examples/exchange_operator.py``) answers each request from the simulated
+cloverleaf; with the same seed it sees the same measurement sequence as the built-in
+``cloverleaf`` device, so the run must end at the same bias.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from installing import environment
+
+from sysid_core.config import parse_config
+from sysid_core.errors import BiasLimitError, DeviceError
+from sysid_core.pipeline import TuningRun
+
+ROOT = Path(__file__).resolve().parents[1]
+OPERATOR = ROOT / "examples" / "exchange_operator.py"
+TABLES: dict[str, Any] = {
+    "tuning": {
+        "criterion": "degenerate",
+        "electrodes": ["B1", "B2"],
+        "start_bias": [0.0, 0.0, 0.0],
+        "max_iterations": 2,
+    },
+    "experiment": {"resolution_hz": 1.0, "verify_resolution_hz": 0.02},
+}
+
+
+def exchange(folder: Path, **options: Any) -> dict[str, Any]:
+    device = {
+        "name": "exchange",
+        "dir": str(folder),
+        "electrodes": ["B1", "B2", "B3"],
+        "bias_limits": [-10.0, 10.0],
+        "structure_potential": 15.58,
+        "band_hz": [4385.0, 4445.0],
+        "wait_s": 30.0,
+        "poll_s": 0.02,
+        **options,
+    }
+    return {"device": device, **TABLES}
+
+
+def operator(folder: Path, *args: str) -> subprocess.Popen[str]:
+    command = [sys.executable, str(OPERATOR), "--dir", str(folder), "--seed", "1", *args]
+    return subprocess.Popen(
+        command, env=environment(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+    )
+
+
+def stop(proc: subprocess.Popen[str]) -> str:
+    proc.kill()
+    out, _ = proc.communicate(timeout=30)
+    return out
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory: pytest.TempPathFactory) -> np.ndarray:
+    """The same tuning with the built-in cloverleaf, seed 1."""
+    cfg = parse_config({"device": {"name": "cloverleaf", "seed": 1}, **TABLES})
+    out = tmp_path_factory.mktemp("reference") / "run"
+    return np.asarray(TuningRun(cfg, out, plots=False).run().bias)
+
+
+def test_answered_by_an_operator_it_tunes_like_the_built_in_device(
+    tmp_path: Path, reference: np.ndarray
+) -> None:
+    folder = tmp_path / "exchange"
+    proc = operator(folder)
+    said: list[str] = []
+    try:
+        cfg = parse_config(exchange(folder))
+        summary = TuningRun(cfg, tmp_path / "run", plots=False, progress=said.append).run()
+    finally:
+        log = stop(proc)
+    np.testing.assert_allclose(summary.bias, reference, rtol=0, atol=1e-3)
+    assert summary.converged, summary.status
+    first = json.loads((folder / "request-0001.json").read_text())
+    assert first["id"] == 1 and first["electrodes"] == ["B1", "B2", "B3"]
+    assert first["bias_v"] == [0.0, 0.0, 0.0] and len(first["frequencies_hz"]) == 61
+    assert any(m.startswith("exchange: request-0001.json: set B1 = 0 V") for m in said), said
+    assert summary.experiments == len(list(folder.glob("response-*.csv"))), log
+
+
+def test_a_malformed_answer_is_rejected_and_may_be_written_again(
+    tmp_path: Path, reference: np.ndarray
+) -> None:
+    folder = tmp_path / "exchange"
+    proc = operator(folder, "--malformed", "2")
+    said: list[str] = []
+    try:
+        cfg = parse_config(exchange(folder))
+        summary = TuningRun(cfg, tmp_path / "run", plots=False, progress=said.append).run()
+    finally:
+        stop(proc)
+    np.testing.assert_allclose(summary.bias, reference, rtol=0, atol=1e-3)
+    kept = sorted(p.name for p in (folder / "rejected").iterdir())
+    assert kept == ["response-0002.csv.1", "response-0002.csv.1.txt"]
+    assert "no imaginary-part" in (folder / "rejected" / "response-0002.csv.1.txt").read_text()
+    assert any("response-0002.csv rejected" in m for m in said)
+
+
+def test_an_error_file_ends_the_run_with_its_text(tmp_path: Path) -> None:
+    folder = tmp_path / "exchange"
+    proc = operator(folder, "--error", "3")
+    try:
+        cfg = parse_config(exchange(folder))
+        with pytest.raises(DeviceError, match="overload on input 2"):
+            TuningRun(cfg, tmp_path / "run", plots=False).run()
+    finally:
+        stop(proc)
+    assert sorted(p.name for p in (tmp_path / "run" / "iter01").glob("*.nc")) == [
+        "exp0.nc",
+        "exp1.nc",
+    ]
+
+
+def test_no_answer_within_wait_s_then_resume_reuses_the_late_answer(
+    tmp_path: Path, reference: np.ndarray
+) -> None:
+    folder = tmp_path / "exchange"
+    proc = operator(folder, "--stop-after", "3")
+    cfg = parse_config(exchange(folder, wait_s=3.0))
+    with pytest.raises(DeviceError, match=r"no answer to request-0004\.json"):
+        TuningRun(cfg, tmp_path / "run", plots=False).run()
+    assert stop(proc).count("wrote response") == 3
+    # The bench answers request 4 while no run is going, then the run is resumed.
+    late = operator(folder, "--stop-after", "1")
+    late.communicate(timeout=60)
+    assert (folder / "response-0004.csv").exists()
+    resumed = operator(folder)
+    try:
+        summary = TuningRun(cfg, tmp_path / "run", resume=True, plots=False).run()
+    finally:
+        stop(resumed)
+    requests = sorted(p.name for p in folder.glob("request-*.json"))
+    assert requests == [f"request-{k:04d}.json" for k in range(1, len(requests) + 1)]
+    assert summary.experiments == len(requests)  # no request was written twice
+    np.testing.assert_allclose(summary.bias, reference, rtol=0, atol=1e-3)
+
+
+def test_bias_limits_are_checked_before_a_request_is_written(tmp_path: Path) -> None:
+    folder = tmp_path / "exchange"
+    tables = exchange(folder)
+    tables["tuning"] = {**tables["tuning"], "start_bias": [0.0, 12.0, 0.0]}
+    with pytest.raises(BiasLimitError, match=r"12\.0 V"):
+        TuningRun(parse_config(tables), tmp_path / "run", plots=False)
+    assert not folder.exists()
+
+
+def test_the_cli_demo_in_the_readme_runs(tmp_path: Path) -> None:
+    """The README's exchange demo: the operator in the background, then sysid tune."""
+    readme = (ROOT / "README.md").read_text()
+    demo = next(line for line in readme.splitlines() if "exchange_operator.py" in line)
+    assert "examples/cloverleaf-exchange.toml" in demo
+    shutil_copy = ["cp", "-r", str(ROOT / "examples"), str(tmp_path / "examples")]
+    subprocess.run(shutil_copy, check=True)
+    env = environment()
+    env["PATH"] = f"{Path(sys.executable).parent}:{env.get('PATH', '')}"
+    done = subprocess.run(
+        ["bash", "-c", demo.replace(".venv/bin/", "")],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "converged" in done.stdout
