@@ -12,7 +12,7 @@ from sysid_core.hookspec import hookimpl, hookspec
 from sysid_core.interfaces import Device, ModelStructure, Objective, Solver, TuningCriterion
 from sysid_core.model import FittedModel
 from sysid_core.registry import Registry, get_registry
-from sysid_core.runs import tune
+from sysid_core.runs import predict_bias, tune
 from sysid_core.validation import check_rank_condition, validate
 
 __version__ = "0.1.0"
@@ -35,6 +35,7 @@ __all__ = [
     "load_dataset",
     "load_model",
     "make_dataset",
+    "predict_bias",
     "save_dataset",
     "to_frd",
     "tune",

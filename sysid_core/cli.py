@@ -11,7 +11,7 @@ import sys
 import warnings
 from typing import Any
 
-from sysid_core import cli_fit, cli_study, cli_tune  # noqa: F401 - they register the commands
+from sysid_core import cli_data, cli_fit, cli_study, cli_tune  # noqa: F401 - they register the commands
 from sysid_core.cli_app import app, failure
 
 __all__ = ["app", "main"]

@@ -46,7 +46,10 @@ def plugins_cmd(
 
 @command("fit")
 def fit_cmd(
-    data: Annotated[Path, typer.Argument(help="Data set (netCDF, see sysid_core.data).")],
+    data: Annotated[
+        Path,
+        typer.Argument(help="Data set (netCDF, see sysid_core.data) or manifest (.toml)."),
+    ],
     model: Annotated[str, typer.Option("--model", help="Model structure: act or sen.")] = "act",
     order: Annotated[int, typer.Option("--order", help="Polynomial order n_R / n_B.")] = 1,
     solver: Annotated[str, typer.Option("--solver", help="Solver backend.")] = "clarabel",
@@ -62,19 +65,23 @@ def fit_cmd(
         bool, typer.Option("--json", help="Last stdout line: one JSON object.")
     ] = False,
 ) -> None:
-    """Fit one bias-dependent model to every experiment of DATA and report it."""
-    from sysid_core.data import load_dataset
+    """Fit one bias-dependent model to every experiment of DATA and report it.
+
+    DATA is a netCDF data set or a manifest of measured response files (docs/measured-data.md).
+    """
     from sysid_core.fit import fit
     from sysid_core.io import check_output_file
+    from sysid_core.manifest import data_files, load_data
 
     target = out_path or data.with_name(f"{data.stem}.model.nc")
-    check_output_file(target, inputs=[data], force=force)
-    ds = load_dataset(data)
+    inputs = data_files(data)
+    check_output_file(target, inputs=inputs, force=force)
+    ds = load_data(data)
     with err.status("fitting ...") as status:
         fitted = fit(
             ds, model, order, objective, solver, progress=lambda m: status.update(f"fitting: {m}")
         )
-    check_output_file(target, inputs=[data], force=force)  # nothing appeared meanwhile
+    check_output_file(target, inputs=inputs, force=force)  # nothing appeared meanwhile
     fitted.save(target)
     bias = ds["bias"].values
     reports = [fitted.modal(b) for b in bias]

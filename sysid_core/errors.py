@@ -15,10 +15,12 @@ __all__ = [
     "DataError",
     "DeviceError",
     "DimensionError",
+    "FileFormatError",
     "FitError",
     "FitWarning",
     "FrequencyGridError",
     "InvalidAnswerError",
+    "ManifestError",
     "MissingBiasError",
     "ModelError",
     "NonFiniteDataError",
@@ -72,6 +74,20 @@ class TooFewExperimentsError(DataError):
 
 class RankConditionError(DataError):
     """The experiment design violates the rank condition (6) of Kim & M'Closkey (2006)."""
+
+
+class FileFormatError(DataError):
+    """A response file cannot be read: missing, of an unknown kind, or not in its format.
+
+    The message names the file and the line (CSV, Touchstone) or variable (.mat, netCDF).
+    """
+
+
+class ManifestError(DataError):
+    """A manifest of measured experiments is invalid: unknown key, wrong type, missing file.
+
+    The message names the manifest and, where it applies, the experiment's index.
+    """
 
 
 class PluginError(SysidError):

@@ -1,4 +1,4 @@
-"""Tuning from Python (notebooks, scripts): :func:`tune`.
+"""Tuning from Python (notebooks, scripts): :func:`tune` and :func:`predict_bias`.
 
 The same run as ``sysid tune``, with the configuration given as a file, a mapping (the TOML
 tables as dicts) or a :class:`~sysid_core.config.PipelineConfig`; the answer is the run's
@@ -17,18 +17,22 @@ Example
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from sysid_core.config import PipelineConfig, load_config, parse_config
 from sysid_core.device import Device
+from sysid_core.model import FittedModel
 from sysid_core.objective import Progress
 from sysid_core.pipeline import TuningRun
-from sysid_core.registry import Registry
+from sysid_core.registry import Registry, get_registry
 from sysid_core.run_summary import RunSummary
+from sysid_core.tuning import BiasSpace, TuningResult
 
-__all__ = ["tune"]
+__all__ = ["predict_bias", "tune"]
 
 
 def tune(
@@ -98,3 +102,56 @@ def tune(
         plot_format=plot_format,
     )
     return run.run()
+
+
+def predict_bias(
+    model: FittedModel,
+    criterion: str = "degenerate",
+    *,
+    bias_limits: tuple[float, float],
+    start_bias: Sequence[float] | None = None,
+    solver: str = "clarabel",
+    registry: Registry | None = None,
+    **options: Any,
+) -> TuningResult:
+    """The biases that tune a fitted model (step 3 alone, no measurement).
+
+    Parameters
+    ----------
+    model : FittedModel
+        E.g. ``fit(load_data("manifest.toml"), "act")``.
+    criterion : str
+        ``"degenerate"``, ``"target"`` (give ``target_hz=``), ``"min-max-bias"`` or a plugin's.
+    bias_limits : (low, high)
+        Allowed bias of every electrode (volts): the answer is always inside.
+    start_bias : sequence of float, optional
+        Where the electrodes are now (default 0 V); used to pick among equally good answers.
+    solver : str
+        Conic solver backend for the criterion's program.
+    registry : Registry, optional
+        Where plugins are looked up (default: the installed ones).
+    **options
+        The criterion's options (``target_hz``, ``tolerance_hz``, ...).
+
+    Returns
+    -------
+    TuningResult
+        ``bias`` (volts, one per model electrode), the predicted modal ``frequencies_hz`` and
+        ``split_hz`` there.
+
+    Raises
+    ------
+    UnreachableTuningError
+        If the goal is out of reach inside ``bias_limits`` (with the best reachable bias).
+    """
+    reg = registry or get_registry()
+    chosen = reg.criterion(criterion, solver=reg.solver(solver), **options)
+    start = np.zeros(model.n_electrodes) if start_bias is None else np.asarray(start_bias)
+    space = BiasSpace(
+        electrodes=list(model.electrodes),
+        tuned=list(model.electrodes),
+        start_bias=np.asarray(start, dtype=float),
+        limits=(float(bias_limits[0]), float(bias_limits[1])),
+        structure_potential=model.structure_potential,
+    )
+    return chosen.solve(model, space)

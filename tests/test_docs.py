@@ -4,7 +4,8 @@ Fenced blocks are collected from ``README.md``, ``docs/**/*.md`` and ``benchmark
 
 * ``bash`` / ``sh``: each command line runs in a shell, in a folder holding a copy of
   ``examples/`` (where the snippets expect it), with this environment's ``sysid`` and ``python``
-  first on ``PATH``; it must exit with status 0;
+  first on ``PATH`` (and standing for ``.venv/bin/sysid``, ``.venv/bin/python``, which the
+  README's install step makes); it must exit with status 0;
 * ``python``: the block runs as a script in such a folder;
 * ``toml``: the block must parse; a configuration (one with a ``[device]`` table) must validate
   and its components must build, every plugin option checked;
@@ -95,6 +96,7 @@ def sandbox(tmp_path: Path) -> Path:
     shutil.copytree(ROOT / "examples", tmp_path / "examples")
     shutil.copytree(ROOT / "benchmarks", tmp_path / "benchmarks")
     shutil.copytree(ROOT / "tests", tmp_path / "tests", ignore=shutil.ignore_patterns("plugins"))
+    shutil.copytree(ROOT / "docs" / "examples", tmp_path / "docs" / "examples")
     return tmp_path
 
 
@@ -125,8 +127,8 @@ def test_block_runs_as_written(
         return
     if block.lang == "python":
         command = [sys.executable, "-c", block.text]
-    else:
-        command = ["bash", "-e", "-o", "pipefail", "-c", block.text]
+    else:  # `.venv/bin/x`: the README's install step made it; here it is this environment's x
+        command = ["bash", "-e", "-o", "pipefail", "-c", block.text.replace(".venv/bin/", "")]
     done = subprocess.run(
         command, cwd=sandbox, env=_env(), capture_output=True, text=True, timeout=1800
     )

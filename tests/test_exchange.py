@@ -154,24 +154,3 @@ def test_bias_limits_are_checked_before_a_request_is_written(tmp_path: Path) -> 
     with pytest.raises(BiasLimitError, match=r"12\.0 V"):
         TuningRun(parse_config(tables), tmp_path / "run", plots=False)
     assert not folder.exists()
-
-
-def test_the_cli_demo_in_the_readme_runs(tmp_path: Path) -> None:
-    """The README's exchange demo: the operator in the background, then sysid tune."""
-    readme = (ROOT / "README.md").read_text()
-    demo = next(line for line in readme.splitlines() if "exchange_operator.py" in line)
-    assert "examples/cloverleaf-exchange.toml" in demo
-    shutil_copy = ["cp", "-r", str(ROOT / "examples"), str(tmp_path / "examples")]
-    subprocess.run(shutil_copy, check=True)
-    env = environment()
-    env["PATH"] = f"{Path(sys.executable).parent}:{env.get('PATH', '')}"
-    done = subprocess.run(
-        ["bash", "-c", demo.replace(".venv/bin/", "")],
-        cwd=tmp_path,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert done.returncode == 0, done.stdout + done.stderr
-    assert "converged" in done.stdout
