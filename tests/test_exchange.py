@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from installing import environment
 
+from sysid_core.cli import main
 from sysid_core.config import parse_config
 from sysid_core.errors import BiasLimitError, DeviceError
 from sysid_core.pipeline import TuningRun
@@ -71,23 +72,46 @@ def reference(tmp_path_factory: pytest.TempPathFactory) -> np.ndarray:
 
 
 def test_answered_by_an_operator_it_tunes_like_the_built_in_device(
-    tmp_path: Path, reference: np.ndarray
+    tmp_path: Path, reference: np.ndarray, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    """A full ``sysid tune`` through files ends at the built-in device's bias (seed 1)."""
     folder = tmp_path / "exchange"
+    cfg = tmp_path / "exchange.toml"
+    tables = exchange(folder)
+    lines = []
+    for table, values in tables.items():
+        lines.append(f"[{table}]")
+        lines += [f"{k} = {json.dumps(v)}" for k, v in values.items()]
+    cfg.write_text("\n".join(lines) + "\n")
     proc = operator(folder)
-    said: list[str] = []
     try:
-        cfg = parse_config(exchange(folder))
-        summary = TuningRun(cfg, tmp_path / "run", plots=False, progress=said.append).run()
+        code = main(["tune", str(cfg), "--out", str(tmp_path / "run"), "--json", "--no-plots"])
     finally:
         log = stop(proc)
-    np.testing.assert_allclose(summary.bias, reference, rtol=0, atol=1e-3)
-    assert summary.converged, summary.status
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    result = json.loads(captured.out.strip().splitlines()[-1])
+    np.testing.assert_allclose(result["bias"], reference, rtol=0, atol=1e-3)
+    assert result["converged"] and result["device"] == "exchange"
     first = json.loads((folder / "request-0001.json").read_text())
     assert first["id"] == 1 and first["electrodes"] == ["B1", "B2", "B3"]
     assert first["bias_v"] == [0.0, 0.0, 0.0] and len(first["frequencies_hz"]) == 61
-    assert any(m.startswith("exchange: request-0001.json: set B1 = 0 V") for m in said), said
-    assert summary.experiments == len(list(folder.glob("response-*.csv"))), log
+    assert result["experiments"] == len(list(folder.glob("response-*.csv"))), log
+
+
+def test_progress_says_which_biases_to_set_and_which_file_to_write(tmp_path: Path) -> None:
+    folder = tmp_path / "exchange"
+    proc = operator(folder, "--stop-after", "1")
+    said: list[str] = []
+    try:
+        cfg = parse_config(exchange(folder, wait_s=2.0))
+        with pytest.raises(DeviceError):
+            TuningRun(cfg, tmp_path / "run", plots=False, progress=said.append).run()
+    finally:
+        stop(proc)
+    first = next(m for m in said if m.startswith("exchange: request-0001.json"))
+    assert "set B1 = 0 V, B2 = 0 V, B3 = 0 V, measure 4385-4445 Hz (61 points)" in first
+    assert f"write response-0001.csv (or .s2p, .mat, .nc) in {folder}" in first
 
 
 def test_a_malformed_answer_is_rejected_and_may_be_written_again(
