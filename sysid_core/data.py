@@ -44,6 +44,7 @@ __all__ = [
     "load_dataset",
     "make_dataset",
     "measured_mask",
+    "read_netcdf",
     "save_dataset",
     "squared_potentials",
     "to_frd",
@@ -225,16 +226,22 @@ def save_dataset(ds: xr.Dataset, path: str | os.PathLike[str]) -> Path:
     return atomic_write(path, lambda tmp: out.to_netcdf(tmp, engine="h5netcdf"))
 
 
-def load_dataset(path: str | os.PathLike[str]) -> xr.Dataset:
-    """Load a data set written by :func:`save_dataset` (into memory; the file is closed)."""
+def read_netcdf(path: str | os.PathLike[str], what: str = "data") -> xr.Dataset:
+    """The netCDF file at ``path``, loaded into memory (the file is closed), or a
+    :class:`DataError` naming the file and ``what`` it should have held."""
     path = Path(path)
     if not path.exists():
-        raise DataError(f"no data file at {path}")
+        raise DataError(f"no {what} file at {path}")
     try:
         with xr.open_dataset(path, engine="h5netcdf") as raw:
-            ds = raw.load()
+            return raw.load()
     except (OSError, ValueError) as exc:
-        raise DataError(f"cannot read {path} as netCDF: {exc}") from exc
+        raise DataError(f"cannot read {path} as {what} (netCDF): {exc}") from exc
+
+
+def load_dataset(path: str | os.PathLike[str]) -> xr.Dataset:
+    """Load a data set written by :func:`save_dataset` (into memory; the file is closed)."""
+    ds = read_netcdf(path)
     for name in [v for v in ds.data_vars if str(v).endswith("_real")]:
         base = str(name)[: -len("_real")]
         if f"{base}_imag" in ds:

@@ -10,7 +10,6 @@ from __future__ import annotations
 import os
 import time
 import warnings
-from pathlib import Path
 from typing import Any, TypeVar
 
 import numpy as np
@@ -18,7 +17,7 @@ import xarray as xr
 from threadpoolctl import threadpool_limits
 
 from sysid_core.conic import Solver
-from sysid_core.data import measured_mask
+from sysid_core.data import measured_mask, read_netcdf
 from sysid_core.errors import DataError, FitWarning
 from sysid_core.model import FittedModel, model_from_dataset, model_from_problem
 from sysid_core.objective import Objective, Progress
@@ -193,14 +192,7 @@ def load_model(path: str | os.PathLike[str], registry: Registry | None = None) -
     process-wide one). Files written before channel names were saved load with the default
     names ``y1, y2`` / ``u1, u2``.
     """
-    path = Path(path)
-    if not path.exists():
-        raise DataError(f"no model file at {path}")
-    try:
-        with xr.open_dataset(path, engine="h5netcdf") as raw:
-            ds = raw.load()
-    except (OSError, ValueError) as exc:
-        raise DataError(f"cannot read {path} as a model (netCDF): {exc}") from exc
+    ds = read_netcdf(path, "model")
     if "structure" not in ds.attrs or "M" not in ds:
         raise DataError(f"{path} is not a model file written by sysid (no structure, no M)")
     structure = (registry or get_registry()).structure(

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import pytest
 from installing import environment
+from truths import write_toml
 
 from sysid_core.cli import main
 from sysid_core.config import parse_config
@@ -76,13 +77,7 @@ def test_answered_by_an_operator_it_tunes_like_the_built_in_device(
 ) -> None:
     """A full ``sysid tune`` through files ends at the built-in device's bias (seed 1)."""
     folder = tmp_path / "exchange"
-    cfg = tmp_path / "exchange.toml"
-    tables = exchange(folder)
-    lines = []
-    for table, values in tables.items():
-        lines.append(f"[{table}]")
-        lines += [f"{k} = {json.dumps(v)}" for k, v in values.items()]
-    cfg.write_text("\n".join(lines) + "\n")
+    cfg = write_toml(tmp_path / "exchange.toml", exchange(folder))
     proc = operator(folder)
     try:
         code = main(["tune", str(cfg), "--out", str(tmp_path / "run"), "--json", "--no-plots"])

@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 import xarray as xr
 from installing import environment
+from truths import write_toml
 
 from sysid_core.cli import main
 from sysid_core.config import parse_config
@@ -49,26 +50,6 @@ TUNE = {"criterion": "degenerate", "electrodes": ["B1", "B2"], "start_bias": [0.
 @pytest.fixture(scope="module", autouse=True)
 def _faulty(faulty_plugin: Path) -> None:
     """Every test here may use the faulty-gyro device."""
-
-
-def toml(path: Path, tables: dict[str, dict[str, Any]]) -> Path:
-    def value(v: Any) -> str:
-        if isinstance(v, bool):
-            return "true" if v else "false"
-        if isinstance(v, str):
-            return json.dumps(v)
-        if isinstance(v, (list, tuple)):
-            return "[" + ", ".join(value(x) for x in v) + "]"
-        if isinstance(v, dict):
-            return "{" + ", ".join(f"{k} = {value(x)}" for k, x in v.items()) + "}"
-        return repr(v)
-
-    lines = []
-    for table, values in tables.items():
-        lines.append(f"[{table}]")
-        lines += [f"{k} = {value(v)}" for k, v in values.items()]
-    path.write_text("\n".join(lines) + "\n")
-    return path
 
 
 def tables(
@@ -263,7 +244,7 @@ def test_version_and_success_exit_0() -> None:
 
 def test_ctrl_c_exits_130_with_how_to_resume_and_resume_works(tmp_path: Path) -> None:
     once = tmp_path / "fault-fired"
-    cfg = toml(
+    cfg = write_toml(
         tmp_path / "c.toml",
         tables(device={"fault": "slow", "on_call": 2, "hang_s": 60, "once_file": str(once)}),
     )
@@ -285,7 +266,7 @@ def test_ctrl_c_exits_130_with_how_to_resume_and_resume_works(tmp_path: Path) ->
 
 
 def test_a_failure_is_one_line_and_exit_1(tmp_path: Path) -> None:
-    cfg = toml(tmp_path / "c.toml", tables(device={"fault": "raise", "on_call": 2}))
+    cfg = write_toml(tmp_path / "c.toml", tables(device={"fault": "raise", "on_call": 2}))
     done = sysid("tune", str(cfg), "--out", str(tmp_path / "run"), "--no-plots")
     assert done.returncode == 1
     line = one_error_line(done.stderr)
@@ -294,7 +275,7 @@ def test_a_failure_is_one_line_and_exit_1(tmp_path: Path) -> None:
 
 # --------------------------------------------------------------------------- 3. no hang
 def test_timed_out_device_does_not_keep_the_process_alive(tmp_path: Path) -> None:
-    cfg = toml(
+    cfg = write_toml(
         tmp_path / "c.toml",
         tables(device={"fault": "hang", "on_call": 2, "hang_s": 600}, experiment={"timeout_s": 2}),
     )
@@ -351,7 +332,7 @@ def test_fit_does_not_overwrite_without_force(
 
 
 def test_resume_only_continues_a_run(tmp_path: Path) -> None:
-    cfg = toml(tmp_path / "c.toml", tables())
+    cfg = write_toml(tmp_path / "c.toml", tables())
     folder = tmp_path / "mine"
     folder.mkdir()
     (folder / "summary.json").write_text('{"mine": true}')
@@ -366,7 +347,9 @@ def test_resume_only_continues_a_run(tmp_path: Path) -> None:
 
 
 def test_second_process_in_the_same_run_is_refused(tmp_path: Path) -> None:
-    cfg = toml(tmp_path / "c.toml", tables(device={"fault": "hang", "on_call": 2, "hang_s": 60}))
+    cfg = write_toml(
+        tmp_path / "c.toml", tables(device={"fault": "hang", "on_call": 2, "hang_s": 60})
+    )
     out = tmp_path / "run"
     first = start(["tune", str(cfg), "--out", str(out), "--no-plots"])
     try:
@@ -423,7 +406,7 @@ def test_bad_settings_fail_before_measuring_and_leave_nothing(
     t = tables(device={"fault": "raise"})  # a measurement would fail differently
     for table, values in change.items():
         t[table] = {**t.get(table, {}), **values}
-    cfg = toml(tmp_path / "c.toml", t)
+    cfg = write_toml(tmp_path / "c.toml", t)
     out = tmp_path / "run"
     done = sysid("tune", str(cfg), "--out", str(out), "--no-plots")
     assert done.returncode == 1

@@ -25,6 +25,7 @@ from hypothesis import strategies as st
 from installing import environment
 from sysid_cloverleaf import CloverleafGyro
 from sysid_simgyro import SimulatedGyro
+from truths import write_toml
 
 import sysid_core.registry
 from sysid_core.cli import main
@@ -127,25 +128,6 @@ def config(
         **tables,
     }
     return parse_config(data)
-
-
-def toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(toml_value(x) for x in v) + "]"
-    return repr(v)
-
-
-def write_toml(path: Path, tables: dict[str, dict[str, Any]]) -> Path:
-    lines = []
-    for table, values in tables.items():
-        lines.append(f"[{table}]")
-        lines += [f"{k} = {toml_value(v)}" for k, v in values.items()]
-    path.write_text("\n".join(lines) + "\n")
-    return path
 
 
 def measurement_files(out: Path) -> list[Path]:

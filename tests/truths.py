@@ -7,6 +7,10 @@ reaches the tests, and the tests' known figures (published biases, frequencies) 
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+from typing import Any
+
 import numpy as np
 from sysid_cloverleaf import CloverleafParameters
 
@@ -82,3 +86,25 @@ def simulate(
     return make_dataset(
         responses, freqs, biases, list(truth.electrodes), truth.structure_potential, device="truth"
     )
+
+
+def write_toml(path: Path, tables: dict[str, dict[str, Any]]) -> Path:
+    """Write configuration ``tables`` (dicts of keys) as a TOML file at ``path``; return it."""
+
+    def value(v: Any) -> str:
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, str):
+            return json.dumps(v)
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(value(x) for x in v) + "]"
+        if isinstance(v, dict):
+            return "{" + ", ".join(f"{k} = {value(x)}" for k, x in v.items()) + "}"
+        return repr(v)
+
+    lines = []
+    for table, values in tables.items():
+        lines.append(f"[{table}]")
+        lines += [f"{k} = {value(v)}" for k, v in values.items()]
+    path.write_text("\n".join(lines) + "\n")
+    return path
