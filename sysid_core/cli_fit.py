@@ -51,11 +51,15 @@ def fit_cmd(
         typer.Argument(help="Data set (netCDF, see sysid_core.data) or manifest (.toml)."),
     ],
     model: Annotated[str, typer.Option("--model", help="Model structure: act or sen.")] = "act",
-    order: Annotated[int, typer.Option("--order", help="Polynomial order n_R / n_B.")] = 1,
+    order: Annotated[int, typer.Option("--order", help="Polynomial order n_R / n_B.")] = 2,
+    bias_terms: Annotated[
+        int,
+        typer.Option("--bias-terms", help="Lowest polynomial degrees that depend on the bias."),
+    ] = 1,
     solver: Annotated[str, typer.Option("--solver", help="Solver backend.")] = "clarabel",
     objective: Annotated[
-        str, typer.Option("--objective", help="Fit objective: minimax or least-squares.")
-    ] = "minimax",
+        str, typer.Option("--objective", help="Fit objective: least-squares or minimax.")
+    ] = "least-squares",
     out_path: Annotated[
         Path | None,
         typer.Option("--out", help="Write the model here (netCDF; default DATA.model.nc)."),
@@ -79,7 +83,13 @@ def fit_cmd(
     ds = load_data(data)
     with err.status("fitting ...") as status:
         fitted = fit(
-            ds, model, order, objective, solver, progress=lambda m: status.update(f"fitting: {m}")
+            ds,
+            model,
+            order,
+            objective,
+            solver,
+            progress=lambda m: status.update(f"fitting: {m}"),
+            bias_terms=bias_terms,
         )
     check_output_file(target, inputs=inputs, force=force)  # nothing appeared meanwhile
     fitted.save(target)

@@ -49,7 +49,11 @@ def build_components(
     DeviceError
         For a device that does not follow the protocol.
     """
-    structure = registry.structure(config.model.structure, **config.model.structure_options)
+    factory = registry.get("model structure", config.model.structure).factory
+    accepted, _ = accepted_options(factory)
+    structure = registry.structure(
+        config.model.structure, **config.model.structure_options(accepted)
+    )
     objective = registry.objective(config.objective.name, **config.objective.options)
     solver = registry.solver(config.solver.name, **config.solver.options)
     options = config.tuning.criterion_options

@@ -209,7 +209,7 @@ def assess_window(sweep: xr.Dataset, model: FittedModel, band: bool = False) -> 
         model.M,
         model.C,
         model.stiffness([]),
-        model.poly,
+        model.poly_at([]),
         model.omega_center,
         model.omega_half,
         model.structure.side,

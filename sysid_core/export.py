@@ -40,6 +40,8 @@ class FittedModel(Protocol):
 
     def check_bias(self, bias: Sequence[float] | np.ndarray | None) -> np.ndarray: ...
 
+    def poly_at(self, bias: Sequence[float] | np.ndarray | None = None) -> np.ndarray: ...
+
     def modal_stiffness(self, b: np.ndarray) -> np.ndarray: ...
 
     def response(
@@ -143,7 +145,7 @@ def to_statespace(
         model.M,
         model.C,
         k,
-        model.poly,
+        model.poly_at(b),
         model.omega_center,
         model.omega_half,
         model.structure.side,

@@ -16,11 +16,13 @@ import numpy as np
 import xarray as xr
 from threadpoolctl import threadpool_limits
 
+from sysid_core.config import DEFAULT_BIAS_TERMS, DEFAULT_OBJECTIVE, DEFAULT_ORDER
 from sysid_core.conic import Solver
 from sysid_core.data import measured_mask, read_netcdf
 from sysid_core.errors import DataError, FitWarning
 from sysid_core.model import FittedModel, model_from_dataset, model_from_problem
 from sysid_core.objective import Objective, Progress
+from sysid_core.options import accepted_options
 from sysid_core.problem import FitProblem
 from sysid_core.registry import Registry, get_registry
 from sysid_core.structures import ModelStructure
@@ -49,13 +51,14 @@ def _component(
 def fit(
     dataset: xr.Dataset,
     structure: str | ModelStructure = "act",
-    order: int = 1,
-    objective: str | Objective = "minimax",
+    order: int = DEFAULT_ORDER,
+    objective: str | Objective = DEFAULT_OBJECTIVE,
     solver: str | Solver = "clarabel",
     progress: Progress | None = None,
     objective_options: dict[str, Any] | None = None,
     solver_options: dict[str, Any] | None = None,
     registry: Registry | None = None,
+    bias_terms: int | None = None,
 ) -> FittedModel:
     """Fit one bias-dependent model to every experiment of ``dataset`` at once.
 
@@ -66,7 +69,7 @@ def fit(
     structure : str or ModelStructure
         ``"act"`` (output dynamics, eq. 8) or ``"sen"`` (input dynamics, eq. 10), or an instance.
     order : int
-        Polynomial order ``n_R`` / ``n_B`` when ``structure`` is a name.
+        Polynomial order ``n_R`` / ``n_B`` when ``structure`` is a name (default 2).
     objective : str or Objective
         ``"minimax"`` (the paper's criterion) or ``"least-squares"``, or an instance.
     solver : str or Solver
@@ -77,6 +80,10 @@ def fit(
         Passed to the objective's / solver's factory when given by name.
     registry : Registry, optional
         Where names are looked up (default: the process-wide registry).
+    bias_terms : int, optional
+        When ``structure`` is a name: the polynomial's lowest degrees that depend on the bias
+        (default 1 for structures that take it; 0 is the paper's model, see
+        :class:`~sysid_core.structures.ModelStructure`).
 
     Returns
     -------
@@ -105,8 +112,20 @@ def fit(
             f"dataset must be an xarray.Dataset (see sysid_core.load_dataset), not "
             f"{type(dataset).__name__}"
         )
+    extra: dict[str, Any] = {}
+    if isinstance(structure, str):
+        factory = (registry or get_registry()).get("model structure", structure).factory
+        accepted, _ = accepted_options(factory)
+        if bias_terms is not None or "bias_terms" in accepted:
+            extra["bias_terms"] = DEFAULT_BIAS_TERMS if bias_terms is None else bias_terms
     structure = _component(
-        registry, structure, ModelStructure, "structure", "model structure", order=order
+        registry,
+        structure,
+        ModelStructure,
+        "structure",
+        "model structure",
+        order=order,
+        **extra,
     )
     # The ignores: mypy rejects an abstract class (Objective, Solver) as type[T]
     # (python/mypy#4717); _component only isinstance()s it.
@@ -196,6 +215,8 @@ def load_model(path: str | os.PathLike[str], registry: Registry | None = None) -
     if "structure" not in ds.attrs or "M" not in ds:
         raise DataError(f"{path} is not a model file written by sysid (no structure, no M)")
     structure = (registry or get_registry()).structure(
-        str(ds.attrs["structure"]), order=int(ds.attrs["order"])
+        str(ds.attrs["structure"]),
+        order=int(ds.attrs["order"]),
+        **({"bias_terms": int(ds.attrs["bias_terms"])} if "bias_terms" in ds.attrs else {}),
     )
     return model_from_dataset(ds, structure)

@@ -75,6 +75,10 @@ class FittedModel:
         Electrostatic stiffness per electrode (per V²).
     poly : ndarray (order + 1, 2, 2), complex
         Coefficients ``P_l`` of the feedthrough polynomial in ``nu``.
+    poly_w : ndarray (bias_terms, n_e, 2, 2), complex
+        Bias-dependent coefficients ``P_{l,p}`` (per V²): at squared potentials ``w`` the
+        polynomial's coefficient of ``nu^l`` is ``P_l + sum_p P_{l,p} w_p`` (see
+        :meth:`poly_at`); empty for the paper's bias-independent polynomial.
     omega_center, omega_half : float
         ``nu = (omega - omega_center) / omega_half``.
     electrodes : list of str
@@ -108,8 +112,11 @@ class FittedModel:
     meta: dict[str, Any] = field(default_factory=dict)
     outputs: list[str] = field(default_factory=lambda: list(DEFAULT_OUTPUTS))
     inputs: list[str] = field(default_factory=lambda: list(DEFAULT_INPUTS))
+    poly_w: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 2, 2), dtype=complex))
 
     def __post_init__(self) -> None:
+        if self.poly_w.size == 0:
+            self.poly_w = np.zeros((0, len(self.electrodes), 2, 2), dtype=complex)
         self.outputs = [str(name) for name in self.outputs]
         self.inputs = [str(name) for name in self.inputs]
         if len(self.outputs) != 2 or len(self.inputs) != 2:
@@ -199,11 +206,23 @@ class FittedModel:
         """Total stiffness at ``bias`` (volts relative to ground)."""
         return self.stiffness_w(self.squared_potentials(bias))
 
-    def polynomial(self, omega: np.ndarray) -> np.ndarray:
-        """``P(nu(omega))`` with shape ``(N, 2, 2)``."""
+    def poly_at(self, bias: Sequence[float] | np.ndarray | None = None) -> np.ndarray:
+        """The polynomial's coefficients at ``bias``: ``P_l + sum_p P_{l,p} w_p``,
+        shape ``(order + 1, 2, 2)``."""
+        if self.poly_w.shape[0] == 0:
+            return self.poly
+        w = self.squared_potentials(bias)
+        out = np.array(self.poly, dtype=complex)
+        out[: self.poly_w.shape[0]] += np.tensordot(w, self.poly_w, axes=([0], [1]))
+        return out
+
+    def polynomial(
+        self, omega: np.ndarray, bias: Sequence[float] | np.ndarray | None = None
+    ) -> np.ndarray:
+        """``P(nu(omega))`` at ``bias`` (it matters only with ``poly_w``), shape ``(N, 2, 2)``."""
         nu = (np.asarray(omega, dtype=float) - self.omega_center) / self.omega_half
         powers = nu[:, None] ** np.arange(self.poly.shape[0])[None, :]
-        return np.tensordot(powers, self.poly, axes=1)
+        return np.tensordot(powers, self.poly_at(bias), axes=1)
 
     def z(self, omega: np.ndarray, bias: Sequence[float] | np.ndarray | None = None) -> np.ndarray:
         """``Z(j omega)`` at ``bias``, shape ``(N, 2, 2)``."""
@@ -215,7 +234,7 @@ class FittedModel:
     ) -> np.ndarray:
         """Model frequency response ``(N, 2, 2)`` at ``bias`` and ``frequencies_hz``."""
         omega = 2 * np.pi * np.atleast_1d(np.asarray(frequencies_hz, dtype=float))
-        return self.structure.response(self.polynomial(omega), self.z(omega, bias))
+        return self.structure.response(self.polynomial(omega, bias), self.z(omega, bias))
 
     def equation_error(self, dataset: xr.Dataset) -> np.ndarray:
         """σ̄ of the equation error at every measured point of ``dataset``: ``(n_exp, n_f)``.
@@ -228,8 +247,8 @@ class FittedModel:
         for k in range(mask.shape[0]):
             omega = 2 * np.pi * f[mask[k]]
             psi = dataset["response"].values[k][mask[k]]
-            z = self.z(omega, dataset["bias"].values[k])
-            e = self.polynomial(omega) - self.structure.product(psi, z)
+            bias = dataset["bias"].values[k]
+            e = self.polynomial(omega, bias) - self.structure.product(psi, self.z(omega, bias))
             out[k, mask[k]] = sigma_max_2x2(e)
         return out
 
@@ -302,6 +321,8 @@ class FittedModel:
                 "Kp": (("electrode", "row", "col"), self.Kp),
                 "poly_real": (("degree", "row", "col"), self.poly.real),
                 "poly_imag": (("degree", "row", "col"), self.poly.imag),
+                "poly_w_real": (("bias_degree", "electrode", "row", "col"), self.poly_w.real),
+                "poly_w_imag": (("bias_degree", "electrode", "row", "col"), self.poly_w.imag),
             },
             coords={
                 "electrode": list(self.electrodes),
@@ -312,6 +333,7 @@ class FittedModel:
             attrs={
                 "structure": self.structure.name,
                 "order": self.structure.order,
+                "bias_terms": self.structure.bias_terms,
                 "omega_center": self.omega_center,
                 "omega_half": self.omega_half,
                 "structure_potential": self.structure_potential,
@@ -350,6 +372,11 @@ def model_from_dataset(ds: xr.Dataset, structure: ModelStructure) -> FittedModel
         K0=ds["K0"].values,
         Kp=ds["Kp"].values,
         poly=ds["poly_real"].values + 1j * ds["poly_imag"].values,
+        poly_w=(
+            ds["poly_w_real"].values + 1j * ds["poly_w_imag"].values
+            if "poly_w_real" in ds
+            else np.zeros((0, ds.sizes["electrode"], 2, 2), dtype=complex)
+        ),
         omega_center=float(ds.attrs["omega_center"]),
         omega_half=float(ds.attrs["omega_half"]),
         electrodes=[str(e) for e in ds["electrode"].values],
@@ -385,12 +412,21 @@ def model_from_problem(problem: FitProblem, result: ObjectiveResult, **meta: obj
     ).reshape(-1, 2, 2)
     k_center = s.omega0**2 * (m + s.eps * sym(th[lay.D]))
     k0 = k_center - np.tensordot(s.w_center, kp, axes=1) if len(kp) else k_center
-    poly = np.array(
+
+    def coefficient(sl: slice) -> np.ndarray:
+        return s.psi_scale * (th[sl][:4] + 1j * th[sl][4:]).reshape(2, 2)
+
+    poly = np.array([coefficient(lay.poly(d)) for d in range(lay.order + 1)])
+    # P~_{l,p} multiplies w~_p = (w_p - w_c,p) / s_p: per V², and the offset moves into P_l.
+    poly_w = np.array(
         [
-            s.psi_scale * (th[lay.poly(d)][:4] + 1j * th[lay.poly(d)][4:]).reshape(2, 2)
-            for d in range(lay.order + 1)
-        ]
-    )
+            [coefficient(lay.poly_w(d, p)) / s.w_scale[p] for p in range(lay.n_electrodes)]
+            for d in range(lay.bias_terms)
+        ],
+        dtype=complex,
+    ).reshape(lay.bias_terms, lay.n_electrodes, 2, 2)
+    for d in range(lay.bias_terms):
+        poly[d] -= np.tensordot(s.w_center, poly_w[d], axes=1)
     return FittedModel(
         structure=self.structure,
         M=m,
@@ -398,6 +434,7 @@ def model_from_problem(problem: FitProblem, result: ObjectiveResult, **meta: obj
         K0=k0,
         Kp=kp,
         poly=poly,
+        poly_w=poly_w,
         omega_center=s.omega0,
         omega_half=s.nu_half,
         electrodes=self.electrodes,

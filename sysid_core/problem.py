@@ -67,11 +67,13 @@ class ParameterLayout:
     """Positions of the scaled unknowns in ``theta``.
 
     Order: ``M`` (3: m11, m12, m22), ``C~`` (3), ``D~0`` (3), ``K~_p`` (3 per electrode), then per
-    polynomial degree ``l``: real parts of ``P~_l`` (4, row-major) and imaginary parts (4).
+    polynomial degree ``l``: real parts of ``P~_l`` (4, row-major) and imaginary parts (4); then,
+    for ``l < bias_terms`` and each electrode ``p``, the 8 reals of ``P~_{l,p}``.
     """
 
     n_electrodes: int
     order: int
+    bias_terms: int = 0
 
     @property
     def n_z(self) -> int:
@@ -81,7 +83,7 @@ class ParameterLayout:
     @property
     def n(self) -> int:
         """Total number of real unknowns."""
-        return self.n_z + 8 * (self.order + 1)
+        return self.n_z + 8 * (self.order + 1) + 8 * self.bias_terms * self.n_electrodes
 
     M = slice(0, 3)
     C = slice(3, 6)
@@ -96,6 +98,11 @@ class ParameterLayout:
         start = self.n_z + 8 * degree
         return slice(start, start + 8)
 
+    def poly_w(self, degree: int, p: int) -> slice:
+        """Slice of the 8 reals of ``P~_{degree,p}`` (bias-dependent term of electrode ``p``)."""
+        start = self.n_z + 8 * (self.order + 1) + 8 * (degree * self.n_electrodes + p)
+        return slice(start, start + 8)
+
     def names(self) -> list[str]:
         """Human-readable name of each unknown."""
         names = [f"{m}{ij}" for m in ("M", "C", "D0") for ij in ("11", "12", "22")]
@@ -104,6 +111,13 @@ class ParameterLayout:
             names += [
                 f"P{deg}_{part}{ij}" for part in ("re", "im") for ij in ("11", "12", "21", "22")
             ]
+        for deg in range(self.bias_terms):
+            for p in range(self.n_electrodes):
+                names += [
+                    f"P{deg}w{p + 1}_{part}{ij}"
+                    for part in ("re", "im")
+                    for ij in ("11", "12", "21", "22")
+                ]
         return names
 
 
@@ -153,7 +167,7 @@ class FitProblem:
         self.electrodes = [str(e) for e in dataset["electrode"].values]
         self.structure_potential = float(dataset.attrs["structure_potential"])
         self.bias = np.asarray(dataset["bias"].values, dtype=float)
-        self.layout = ParameterLayout(len(self.electrodes), structure.order)
+        self.layout = ParameterLayout(len(self.electrodes), structure.order, structure.bias_terms)
         mask = measured_mask(dataset)
         f = np.asarray(dataset["frequency"].values, dtype=float)
         k_idx, q_idx = np.nonzero(mask)
@@ -207,13 +221,17 @@ class FitProblem:
         for sl, c in coef:
             for a in range(3):
                 g[:, :, :, sl.start + a] = -c[:, None, None] * prod[:, a]
-        for deg in range(lay.order + 1):
-            sl = lay.poly(deg)
-            nu_l = nu**deg
+        blocks = [(lay.poly(deg), nu**deg) for deg in range(lay.order + 1)]
+        blocks += [
+            (lay.poly_w(deg, p), nu**deg * wt[:, p])
+            for deg in range(lay.bias_terms)
+            for p in range(lay.n_electrodes)
+        ]
+        for sl, factor in blocks:
             for e in range(4):
                 r, col = divmod(e, 2)
-                g[:, r, col, sl.start + e] = nu_l
-                g[:, r, col, sl.start + 4 + e] = 1j * nu_l
+                g[:, r, col, sl.start + e] = factor
+                g[:, r, col, sl.start + 4 + e] = 1j * factor
         flat = g.reshape(n_pts, 4, lay.n)
         return np.ascontiguousarray(np.concatenate([flat.real, flat.imag], axis=1))
 

@@ -34,6 +34,13 @@ class ModelStructure:
     order : int
         Degree of the polynomial :math:`P` (the paper's :math:`n_R` or :math:`n_B`), 0 to
         :attr:`max_order`.
+    bias_terms : int
+        How many of the polynomial's lowest degrees also depend on the squared potentials:
+        :math:`P(\\nu, w) = \\sum_l \\nu^l (P_l + \\sum_p P_{l,p} w_p)` for ``l < bias_terms``
+        (0, the default, is the paper's bias-independent :math:`P`). A capacitive feedthrough
+        :math:`F(s)` in the data makes :math:`\\psi Z = \\tilde R + F Z`, and :math:`F Z` holds
+        :math:`F K_p w_p`: terms that the bias-independent polynomial cannot absorb and that
+        then bias the fitted :math:`K_p`. The relaxation keeps the fit linear in the unknowns.
     """
 
     #: Name used in configuration files and on the command line.
@@ -42,11 +49,13 @@ class ModelStructure:
     description: ClassVar[str] = ""
     #: Largest supported polynomial order.
     max_order: ClassVar[int] = 6
+    #: Lowest polynomial degrees that depend on the squared potentials (see ``bias_terms``).
+    bias_terms: int = 0
     #: Where the extra dynamics sit: ``"output"`` (E = P - psi Z, response P Z^-1) or
     #: ``"input"`` (E = P - Z psi, response Z^-1 P).
     side: ClassVar[Side]
 
-    def __init__(self, order: int = 1) -> None:
+    def __init__(self, order: int = 1, bias_terms: int = 0) -> None:
         if isinstance(order, bool) or not isinstance(order, (int, np.integer)):
             raise ConfigError(f"model order must be an integer, got {order!r}")
         if not 0 <= int(order) <= self.max_order:
@@ -54,6 +63,14 @@ class ModelStructure:
                 f"model order {order} is out of range for {self.name!r}: use 0 to {self.max_order}"
             )
         self.order = int(order)
+        if isinstance(bias_terms, bool) or not isinstance(bias_terms, (int, np.integer)):
+            raise ConfigError(f"bias_terms must be an integer, got {bias_terms!r}")
+        if not 0 <= int(bias_terms) <= self.order + 1:
+            raise ConfigError(
+                f"bias_terms = {bias_terms} for a polynomial of order {self.order}: use 0 to "
+                f"{self.order + 1}"
+            )
+        self.bias_terms = int(bias_terms)
 
     def product(self, psi: np.ndarray, z: np.ndarray) -> np.ndarray:
         """The bilinear term of the equation error: ``psi @ z`` (output) or ``z @ psi`` (input).
@@ -70,4 +87,5 @@ class ModelStructure:
         return np.linalg.solve(z, p)
 
     def __repr__(self) -> str:
-        return f"{type(self).__name__}(order={self.order})"
+        extra = f", bias_terms={self.bias_terms}" if self.bias_terms else ""
+        return f"{type(self).__name__}(order={self.order}{extra})"

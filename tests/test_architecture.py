@@ -33,6 +33,7 @@ import xarray as xr
 from sysid_cloverleaf import CloverleafGyro
 from sysid_criteria.criteria import Degenerate
 from sysid_models.structures import ActStructure
+from sysid_objectives.least_squares import LeastSquares
 from sysid_objectives.minimax import Minimax
 from sysid_solvers.clarabel_backend import ClarabelSolver
 
@@ -466,7 +467,7 @@ class _OnlyTestPlugins:
 
     @hookimpl
     def sysid_objectives(self):
-        return {"minimax": Minimax}
+        return {"minimax": Minimax, "least-squares": LeastSquares}
 
     @hookimpl
     def sysid_solvers(self):

@@ -95,6 +95,7 @@ def test_modal_frequencies_invariant_to_common_scaling(model, b1, b2, scale):
         K0=model.K0 * scale,
         Kp=model.Kp * scale,
         poly=model.poly * scale,
+        poly_w=model.poly_w * scale,
     )
     a, b = model.modal([b1, b2]), other.modal([b1, b2])
     np.testing.assert_allclose(a.frequencies_hz, b.frequencies_hz, rtol=1e-12)

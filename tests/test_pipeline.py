@@ -53,6 +53,7 @@ TWO_ELECTRODES = {
     "start_bias": [0.0, 0.0, 0.0],
     "max_iterations": 2,
 }
+PAPER_MODEL = {"structure": "act", "order": 1, "bias_terms": 0}
 MEASUREMENT = re.compile(r"(exp\d+|verify(-\d+)?)\.nc")
 
 
@@ -266,6 +267,10 @@ def _resume_config(tmp_path: Path) -> Path:
         tmp_path / "resume.toml",
         {
             "device": {"name": RecordingCloverleaf.name, "seed": 1},
+            # The paper's model takes two iterations, so the interrupted run resumes
+            # across an iteration boundary (the default model converges in one).
+            "model": PAPER_MODEL,
+            "objective": {"name": "minimax"},
             "tuning": TWO_ELECTRODES,
             "experiment": REDUCED,
         },
@@ -517,8 +522,10 @@ def test_config_value_errors_before_measuring(tmp_path: Path) -> None:
         attempt(tuning={"criterion": "target"})
     with pytest.raises(PluginNotFoundError, match="model structure named 'acts'"):
         attempt(model={"structure": "acts"})
-    with pytest.raises(ConfigError, match="'bogus' for objective 'minimax'"):
+    with pytest.raises(ConfigError, match="'bogus' for objective 'least-squares'"):
         attempt(objective={"bogus": 1})
+    with pytest.raises(ConfigError, match="'bogus' for objective 'minimax'"):
+        attempt(objective={"name": "minimax", "bogus": 1})
     with pytest.raises(ConfigError, match="repeat"):
         attempt(tuning={"electrodes": ["B1", "B1"]})
     with pytest.raises(ConfigError, match="bias_step"):
@@ -579,7 +586,8 @@ def test_cli_human_output(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
         tmp_path / "c.toml",
         {
             "device": {"name": "cloverleaf"},
-            "tuning": {**TWO_ELECTRODES, "max_iterations": 1},
+            # 0.1 mHz: more than one iteration reaches (3.4 mHz), so the run fails
+            "tuning": {**TWO_ELECTRODES, "max_iterations": 1, "acceptance_hz": 1e-4},
             "experiment": REDUCED,
         },
     )
