@@ -70,6 +70,20 @@ def tune_cmd(
                 f"{e} = {b:.4f} V" for e, b in zip(summary.electrodes, summary.bias, strict=True)
             )
         )
+        region = summary.confidence
+        if region is not None:
+            tuned = [summary.electrodes.index(e) for e in summary.tuned]
+            out.print(
+                f"{region['confidence_level']:.0%} region of the last answer: "
+                + ", ".join(
+                    f"{summary.electrodes[p]} {region['bias_ci'][p][0]:.4f}.."
+                    f"{region['bias_ci'][p][1]:.4f} V"
+                    for p in tuned
+                )
+                + f"; split {region['split_ci_hz'][0] * 1e3:.3g}-"
+                f"{region['split_ci_hz'][1] * 1e3:.3g} mHz",
+                highlight=False,
+            )
         out.print(
             f"results and plots in {target}/ (summary.json, bias_path.{plot_format}, iterNN/)"
         )

@@ -36,6 +36,7 @@ import xarray as xr
 
 from sysid_core import export
 from sysid_core.conic import sym
+from sysid_core.covariance import stiffness_factor
 from sysid_core.data import measured_mask, squared_potentials
 from sysid_core.errors import DataError, ModelError
 from sysid_core.io import atomic_write
@@ -95,6 +96,13 @@ class FittedModel:
         Names of the two output and the two input channels (the data set's ``output`` and
         ``input`` coordinates); they name the channels of :meth:`to_statespace` and
         :meth:`to_frd`.
+    stiffness_factor : ndarray or None
+        A square root ``F`` of the covariance ``F Fᵀ`` of the stiffness parameters ``M``,
+        ``K0``, ``K_p`` (each as its entries 11, 12, 22; order and units in
+        :func:`sysid_core.covariance.stiffness_map`), when the objective states a covariance
+        (least squares); what the tuning's confidence regions come from
+        (:mod:`sysid_core.confidence`). Kept as a factor: ``K0`` and ``M`` are strongly
+        correlated and the covariance itself loses the small differences that set the split.
     """
 
     structure: ModelStructure
@@ -113,10 +121,19 @@ class FittedModel:
     outputs: list[str] = field(default_factory=lambda: list(DEFAULT_OUTPUTS))
     inputs: list[str] = field(default_factory=lambda: list(DEFAULT_INPUTS))
     poly_w: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 2, 2), dtype=complex))
+    stiffness_factor: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if self.poly_w.size == 0:
             self.poly_w = np.zeros((0, len(self.electrodes), 2, 2), dtype=complex)
+        if self.stiffness_factor is not None:
+            n = 6 + 3 * len(self.electrodes)
+            self.stiffness_factor = np.asarray(self.stiffness_factor, dtype=float)
+            if self.stiffness_factor.ndim != 2 or self.stiffness_factor.shape[0] != n:
+                raise DataError(
+                    f"stiffness_factor has shape {self.stiffness_factor.shape}; a model with "
+                    f"{len(self.electrodes)} electrode(s) needs {n} rows"
+                )
         self.outputs = [str(name) for name in self.outputs]
         self.inputs = [str(name) for name in self.inputs]
         if len(self.outputs) != 2 or len(self.inputs) != 2:
@@ -323,6 +340,11 @@ class FittedModel:
                 "poly_imag": (("degree", "row", "col"), self.poly.imag),
                 "poly_w_real": (("bias_degree", "electrode", "row", "col"), self.poly_w.real),
                 "poly_w_imag": (("bias_degree", "electrode", "row", "col"), self.poly_w.imag),
+                **(
+                    {"stiffness_factor": (("parameter", "factor"), self.stiffness_factor)}
+                    if self.stiffness_factor is not None
+                    else {}
+                ),
             },
             coords={
                 "electrode": list(self.electrodes),
@@ -386,6 +408,7 @@ def model_from_dataset(ds: xr.Dataset, structure: ModelStructure) -> FittedModel
         meta=json.loads(str(ds.attrs["meta"])),
         outputs=_names(ds, "output", DEFAULT_OUTPUTS),
         inputs=_names(ds, "input", DEFAULT_INPUTS),
+        stiffness_factor=ds["stiffness_factor"].values if "stiffness_factor" in ds else None,
     )
 
 
@@ -427,6 +450,7 @@ def model_from_problem(problem: FitProblem, result: ObjectiveResult, **meta: obj
     ).reshape(lay.bias_terms, lay.n_electrodes, 2, 2)
     for d in range(lay.bias_terms):
         poly[d] -= np.tensordot(s.w_center, poly_w[d], axes=1)
+    factor = None if result.covariance is None else stiffness_factor(problem, result.covariance)
     return FittedModel(
         structure=self.structure,
         M=m,
@@ -457,6 +481,7 @@ def model_from_problem(problem: FitProblem, result: ObjectiveResult, **meta: obj
             "fit_bias": self.bias.tolist(),
             **meta,
         },
+        stiffness_factor=factor,
     )
 
 

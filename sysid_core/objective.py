@@ -48,6 +48,9 @@ class ObjectiveResult:
         Total solver iterations.
     info : dict
         Anything else worth reporting.
+    covariance : ndarray or None
+        Covariance of ``theta`` (scaled units) when the objective can state one (least
+        squares: :func:`sysid_core.covariance.theta_covariance`); ``None`` otherwise.
     """
 
     theta: np.ndarray
@@ -59,6 +62,7 @@ class ObjectiveResult:
     working_set: int = 0
     iterations: int = 0
     info: dict[str, object] = field(default_factory=dict)
+    covariance: np.ndarray | None = None
 
 
 class Objective(ABC):

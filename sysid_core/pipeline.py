@@ -39,6 +39,7 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.components import build_components
+from sysid_core.confidence import confidence_region
 from sysid_core.config import PipelineConfig
 from sysid_core.data import (
     concat_experiments,
@@ -57,7 +58,13 @@ from sysid_core.report import PLOT_FORMATS, plot_bias_path, plot_iteration
 from sysid_core.run_summary import IterationRecord, RunSummary, status_line
 from sysid_core.runfolder import RunFolder
 from sysid_core.sweeps import SweepPlan, design_experiments
-from sysid_core.tuning import BiasSpace, Goal, TuningResult, frequencies_from_w
+from sysid_core.tuning import (
+    BiasSpace,
+    ConfidenceRegion,
+    Goal,
+    TuningResult,
+    frequencies_from_w,
+)
 from sysid_core.validation import check_rank_condition
 from sysid_core.verification import Verification, verify
 
@@ -291,6 +298,7 @@ class TuningRun:
         )
         center: float | None = None
         split = 0.0
+        regions: list[ConfidenceRegion | None] = []
         for it in range(1, cfg.max_iterations + 1):
             folder = self.out / f"iter{it:02d}"
             t0 = time.perf_counter()
@@ -308,11 +316,18 @@ class TuningRun:
             except UnreachableTuningError as exc:
                 result = self._best_effort(exc, model, space, it)
             new_bias = check_bias(self.device.device, result.bias)
+            result.confidence = confidence_region(model, result, space)
+            regions.append(result.confidence)
             write_json(folder / "tuning.json", result.as_dict())
+            sure = (
+                ""
+                if result.confidence is None
+                else f"; {result.confidence.describe(self.space.index)}"
+            )
             self.say(
                 f"iteration {it}: {self.criterion.name} bias "
                 f"[{', '.join(f'{b:.4f}' for b in new_bias)}] V, predicted modes "
-                f"{result.frequencies_hz[0]:.3f} / {result.frequencies_hz[1]:.3f} Hz"
+                f"{result.frequencies_hz[0]:.3f} / {result.frequencies_hz[1]:.3f} Hz{sure}"
             )
             ver = self._verify(new_bias, result, model, folder)
             ver.model.save(folder / "verify-model.nc")
@@ -324,7 +339,14 @@ class TuningRun:
             converged = ver.verified and all(g.met for g in goals)
             if self.plots:
                 plot_iteration(
-                    it, ds, model, ver, new_bias[self.space.index], folder, self.plot_format
+                    it,
+                    ds,
+                    model,
+                    ver,
+                    new_bias[self.space.index],
+                    folder,
+                    self.plot_format,
+                    result.confidence,
                 )
             bias = new_bias
             path.append(bias.tolist())
@@ -351,6 +373,7 @@ class TuningRun:
             summary.iterations, summary.experiments = it, self.measurements
             summary.converged, summary.verified = converged, ver.verified
             summary.goals = [g.as_dict() for g in goals]
+            summary.confidence = None if result.confidence is None else result.confidence.as_dict()
             summary.status = status_line(it, ver, goals, converged)
             summary.history = history
             summary.notes = list(self.notes)
@@ -364,6 +387,7 @@ class TuningRun:
                     self.out / f"bias_path.{self.plot_format}",
                     self.space.limits,
                     acceptance_hz=cfg.acceptance_hz,
+                    regions=regions,
                 )
             if converged:
                 break

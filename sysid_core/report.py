@@ -31,6 +31,7 @@ if TYPE_CHECKING:
 
     from sysid_core.model import FittedModel
     from sysid_core.run_summary import Verification
+    from sysid_core.tuning import ConfidenceRegion
 
 __all__ = [
     "PLOT_FORMATS",
@@ -179,24 +180,46 @@ def bias_path_figure(
     electrodes: Sequence[str],
     limits: tuple[float, float] | None = None,
     acceptance_hz: float | None = None,
+    regions: Sequence[ConfidenceRegion | None] | None = None,
 ) -> Figure:
     """Every electrode's bias after each iteration, and the split each verification measured.
 
     ``biases[0]`` is the start bias, ``biases[k]`` the bias of iteration ``k``. A split of
     ``None`` (the verification did not show both modes) is drawn as a cross at the bottom.
+    ``regions[k - 1]``, the confidence region of iteration ``k``'s answer, adds error bars to
+    its biases and its predicted split range next to the measured split.
     """
     fig = _figure(1, 2, (11, 4.5))
     ax_b, ax_s = fig.axes
     b = np.asarray(biases, dtype=float)
     steps = np.arange(b.shape[0])
+    regions = list(regions or [])
     for p, name in enumerate(electrodes):
-        ax_b.plot(steps, b[:, p], "-o", ms=4, label=name)
+        line = ax_b.plot(steps, b[:, p], "-o", ms=4, label=name)[0]
+        for k, region in enumerate(regions[: b.shape[0] - 1], start=1):
+            if region is None:
+                continue
+            lo, hi = region.bias_ci[p]
+            if hi > lo:
+                err = [[max(b[k, p] - lo, 0.0)], [max(hi - b[k, p], 0.0)]]
+                ax_b.errorbar(k, b[k, p], yerr=err, color=line.get_color(), capsize=4, lw=1)
+                ax_b.annotate(
+                    f"±{0.5 * (hi - lo) * 1e3:.3g} mV",
+                    (k, b[k, p]),
+                    xytext=(6, -3),
+                    textcoords="offset points",
+                    fontsize=7,
+                    color=line.get_color(),
+                )
     if limits is not None:
         ax_b.axhspan(limits[0], limits[1], color="0.93", zorder=0, label="allowed bias")
     ax_b.set_xticks(steps, ["start", *[str(k) for k in steps[1:]]])
+    ax_b.set_xlim(-0.3, steps[-1] + (0.6 if regions else 0.3))
     ax_b.set_xlabel("iteration")
     ax_b.set_ylabel("bias [V]")
-    ax_b.set_title("bias of each electrode")
+    ax_b.set_title(
+        "bias of each electrode" + (" (bars: confidence region of each answer)" if regions else "")
+    )
     ax_b.legend(fontsize=8, ncols=2)
     it = np.arange(1, len(splits_hz) + 1)
     known = np.array([s is not None and np.isfinite(s) for s in splits_hz], dtype=bool)
@@ -216,11 +239,35 @@ def bias_path_figure(
             color="tab:red",
             label="not verified (no split measured)",
         )
+    shown = [r for r in regions[: len(splits_hz)] if r is not None]
+    if shown:
+        # A range that reaches 0 runs off the bottom of the log axis (below every value shown).
+        values = [v for v in mhz[known]] + [r.split_ci_hz[1] * 1e3 for r in shown]
+        values += [acceptance_hz * 1e3] if acceptance_hz else []
+        bottom = max(min(v for v in values if v > 0) / 10, floor) if any(values) else floor
+        for k, region in enumerate(regions[: len(splits_hz)], start=1):
+            if region is None:
+                continue
+            lo, hi = (v * 1e3 for v in region.split_ci_hz)
+            ax_s.semilogy(
+                [k + 0.1, k + 0.1],
+                [max(lo, bottom / 2), max(hi, bottom)],
+                "-",
+                color="tab:orange",
+                lw=6,
+                alpha=0.6,
+                solid_capstyle="butt",
+                label=None
+                if k > 1 and region is not shown[0]
+                else (f"predicted split at the answer, {region.level:.0%} range"),
+            )
+        ax_s.set_ylim(bottom=bottom)
     if acceptance_hz is not None:
         ax_s.axhline(acceptance_hz * 1e3, color="tab:green", ls="--", label="acceptance")
     ax_s.set_xlabel("iteration")
     ax_s.set_ylabel("measured split [mHz]")
     ax_s.set_xticks(it)
+    ax_s.set_xlim(0.5, len(splits_hz) + 0.5)
     ax_s.set_title("split after each iteration")
     ax_s.legend(fontsize=8)
     return fig
@@ -233,9 +280,12 @@ def plot_bias_path(
     path: str | os.PathLike[str],
     limits: tuple[float, float] | None = None,
     acceptance_hz: float | None = None,
+    regions: Sequence[ConfidenceRegion | None] | None = None,
 ) -> Path:
     """:func:`bias_path_figure` written to ``path``."""
-    return save_figure(bias_path_figure(biases, splits_hz, electrodes, limits, acceptance_hz), path)
+    return save_figure(
+        bias_path_figure(biases, splits_hz, electrodes, limits, acceptance_hz, regions), path
+    )
 
 
 def plot_iteration(
@@ -246,8 +296,13 @@ def plot_iteration(
     tuned_bias: Sequence[float] | np.ndarray,
     folder: str | os.PathLike[str],
     fmt: str = "png",
+    region: ConfidenceRegion | None = None,
 ) -> None:
-    """An iteration's ``fit.<fmt>`` and ``verify.<fmt>`` in ``folder``."""
+    """An iteration's ``fit.<fmt>`` and ``verify.<fmt>`` in ``folder``.
+
+    ``region`` (the answer's confidence region) adds the predicted split range to the title of
+    the verification plot.
+    """
     folder = Path(folder)
     units = str(ds.attrs.get("response_units", "") or "response units")
     title = (
@@ -261,7 +316,13 @@ def plot_iteration(
             model,
             tuned_bias,
             ver.model,
-            f"iteration {it} verification ({ver.status}): {ver.describe()}",
+            f"iteration {it} verification ({ver.status}): {ver.describe()}"
+            + (
+                ""
+                if region is None
+                else f"; predicted split {region.split_ci_hz[0] * 1e3:.3g}-"
+                f"{region.split_ci_hz[1] * 1e3:.3g} mHz ({region.level:.0%})"
+            ),
         ),
         folder / f"verify.{fmt}",
     )

@@ -13,7 +13,10 @@ from typing import Any
 from sysid_core.tuning import Goal
 from sysid_core.verification import Verification
 
-__all__ = ["IterationRecord", "RunSummary", "status_line"]
+__all__ = ["CONFIDENCE_KEYS", "IterationRecord", "RunSummary", "status_line"]
+
+#: The confidence region's keys in ``summary.json`` and the ``--json`` line.
+CONFIDENCE_KEYS = ("confidence_level", "bias_ci", "split_ci_hz", "frequency_ci_hz")
 
 
 @dataclass
@@ -46,7 +49,11 @@ class RunSummary:
     not verify them; ``converged`` is true only when the last verification was verified and
     every goal in ``goals`` is met; ``status`` says so in one sentence. ``notes`` lists what
     the identification fits found suspicious (:func:`sysid_core.fit.check_fit`), e.g. modes of a
-    stepped experiment outside its window.
+    stepped experiment outside its window. ``confidence`` holds the last answer's confidence
+    region (:meth:`sysid_core.tuning.ConfidenceRegion.as_dict`: ``confidence_level``,
+    ``bias_ci``, ``split_ci_hz``, ``frequency_ci_hz``), or None when the fit states no
+    covariance (``minimax``); :meth:`as_dict` puts its keys at the top level (None when
+    missing).
     """
 
     device: str
@@ -64,6 +71,7 @@ class RunSummary:
     history: list[IterationRecord] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     out: str = ""
+    confidence: dict[str, Any] | None = None
 
     @property
     def paths(self) -> dict[str, Any]:
@@ -95,6 +103,7 @@ class RunSummary:
             "goals": self.goals,
             "electrodes": self.electrodes,
             "tuned": self.tuned,
+            **{key: (self.confidence or {}).get(key) for key in CONFIDENCE_KEYS},
             "out": self.out,
             "notes": self.notes,
             "history": [r.as_dict() for r in self.history],

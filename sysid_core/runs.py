@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from sysid_core.confidence import confidence_region
 from sysid_core.config import PipelineConfig, load_config, parse_config
 from sysid_core.device import Device
 from sysid_core.model import FittedModel
@@ -137,7 +138,8 @@ def predict_bias(
     -------
     TuningResult
         ``bias`` (volts, one per model electrode), the predicted modal ``frequencies_hz`` and
-        ``split_hz`` there.
+        ``split_hz`` there, and ``confidence``: the 95 % region of the answer
+        (:class:`~sysid_core.tuning.ConfidenceRegion`; ``None`` for a ``minimax`` fit).
 
     Raises
     ------
@@ -154,4 +156,6 @@ def predict_bias(
         limits=(float(bias_limits[0]), float(bias_limits[1])),
         structure_potential=model.structure_potential,
     )
-    return chosen.solve(model, space)
+    result = chosen.solve(model, space)
+    result.confidence = confidence_region(model, result, space)
+    return result

@@ -24,7 +24,9 @@ from sysid_core.config import parse_config
 from sysid_core.errors import ConfigError
 from sysid_core.io import write_json
 from sysid_core.measuring import ground_truth
+from sysid_core.simulation import GyroTruth
 from sysid_core.study_plan import _SAFE_NAME, RunSpec
+from sysid_core.tuning import BiasSpace
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -99,19 +101,35 @@ def run_one(spec: RunSpec) -> dict[str, Any]:
         summary = run.run()
         sim = ground_truth(run.device)
         truth = sim.true_modal_frequencies_hz if sim is not None else None
+        target = true_degenerate_bias(sim, cfg.tuning.criterion, run.space)
         iters = []
         for rec in summary.history:
             f_true = np.asarray(truth(rec.verified_bias)) if truth else np.full(2, np.nan)
+            true_split = float(f_true[1] - f_true[0])
+            bias_ci, split_ci = rec.tuning.get("bias_ci"), rec.tuning.get("split_ci_hz")
             iters.append(
                 {
                     "iteration": rec.iteration,
                     "bias": rec.verified_bias,
                     "predicted_split_hz": rec.tuning["predicted_split_hz"],
                     "measured_split_hz": rec.measured_split_hz,
-                    "true_split_hz": float(f_true[1] - f_true[0]),
+                    "true_split_hz": true_split,
                     "true_frequency_hz": float(f_true.mean()),
                     "gamma": rec.gamma,
                     "fit_time_s": rec.fit_time_s,
+                    "bias_ci": bias_ci,
+                    "split_ci_hz": split_ci,
+                    "true_degenerate_bias": target,
+                    "bias_covered": None
+                    if bias_ci is None or target is None
+                    else all(
+                        lo <= t <= hi
+                        for p, ((lo, hi), t) in enumerate(zip(bias_ci, target, strict=True))
+                        if p in run.space.index
+                    ),
+                    "split_covered": None
+                    if split_ci is None or truth is None
+                    else bool(split_ci[0] <= true_split <= split_ci[1]),
                 }
             )
         return {
@@ -122,6 +140,20 @@ def run_one(spec: RunSpec) -> dict[str, Any]:
         }
     except Exception as exc:  # report, do not stop the study
         return _failure(spec, exc, time.perf_counter() - t0)
+
+
+def true_degenerate_bias(sim: object, criterion: str, space: BiasSpace) -> list[float] | None:
+    """The TRUE bias that makes the modes degenerate, where a study can say which one.
+
+    Defined for the ``degenerate`` criterion on exactly two tuned electrodes (the others at
+    their start bias) of a simulated device with a :class:`~sysid_core.simulation.GyroTruth`
+    (its ``truth``); ``None`` otherwise (more electrodes tune along a whole set of biases).
+    """
+    truth = getattr(sim, "truth", None)
+    if criterion != "degenerate" or len(space.index) != 2 or not isinstance(truth, GyroTruth):
+        return None
+    pair = (space.index[0], space.index[1])
+    return [float(b) for b in truth.degenerate_bias(pair, bias=space.start_bias)]
 
 
 def _result_path(out: Path, key: str) -> Path:

@@ -29,8 +29,12 @@ def to_dataset(results: list[dict[str, Any]], electrodes: list[str], iterations:
             "predicted_split_hz",
             "gamma",
             "true_frequency_hz",
+            "bias_covered",
+            "split_covered",
         )
     }
+    bias_ci = np.full((*shape, len(electrodes), 2), np.nan)
+    split_ci = np.full((*shape, 2), np.nan)
     start = np.full((n_start, len(electrodes)), np.nan)
     error = np.full(shape[:3], "", dtype=object)
     for r in results:
@@ -43,11 +47,20 @@ def to_dataset(results: list[dict[str, Any]], electrodes: list[str], iterations:
             for name, arr in fields.items():
                 value = it.get(name)
                 arr[o, m, s, k] = np.nan if value is None else value  # null: NaN in JSON
+            if it.get("bias_ci") is not None:
+                bias_ci[o, m, s, k] = it["bias_ci"]
+            if it.get("split_ci_hz") is not None:
+                split_ci[o, m, s, k] = it["split_ci_hz"]
     dims = ("objective", "model", "start", "iteration")
     ds = xr.Dataset(
         {
             "predicted_bias": ((*dims, "electrode"), bias, {"units": "V"}),
-            **{k: (dims, v, {"units": "Hz"} if k != "gamma" else {}) for k, v in fields.items()},
+            **{
+                k: (dims, v, {"units": "Hz"} if k.endswith("_hz") else {})
+                for k, v in fields.items()
+            },
+            "bias_ci": ((*dims, "electrode", "bound"), bias_ci, {"units": "V"}),
+            "split_ci_hz": ((*dims, "bound"), split_ci, {"units": "Hz"}),
             "error": (dims[:3], error.astype(str)),
         },
         coords={
@@ -57,6 +70,7 @@ def to_dataset(results: list[dict[str, Any]], electrodes: list[str], iterations:
             "iteration": np.arange(1, iterations + 1),
             "electrode": electrodes,
             "start_bias": (("start", "electrode"), start, {"units": "V"}),
+            "bound": ["low", "high"],
         },
     )
     return ds
@@ -90,10 +104,33 @@ def summarize(ds: xr.Dataset, tuned_index: list[int]) -> dict[str, Any]:
                     }
                     if ok.any()
                     else None,
+                    **_coverage(sel, ok, tuned_index),
                 }
             per_model[str(model)] = per_it
         out[str(obj)] = per_model
     return out
+
+
+def _fraction(flags: np.ndarray) -> float | None:
+    known = flags[np.isfinite(flags)]
+    return float(known.mean()) if known.size else None
+
+
+def _coverage(sel: xr.Dataset, ok: np.ndarray, tuned_index: list[int]) -> dict[str, Any]:
+    """How often the confidence regions held the truth, and how wide they were."""
+    half = 0.5 * np.diff(sel["bias_ci"].values[ok][:, tuned_index], axis=-1)[..., 0]
+    high = sel["split_ci_hz"].values[ok][:, 1]
+    with np.errstate(all="ignore"):
+        return {
+            "bias_coverage": _fraction(sel["bias_covered"].values[ok]),
+            "split_coverage": _fraction(sel["split_covered"].values[ok]),
+            "median_bias_halfwidth": np.round(np.nanmedian(half, axis=0), 6).tolist()
+            if np.isfinite(half).any()
+            else None,
+            "median_split_ci_high_hz": float(np.nanmedian(high))
+            if np.isfinite(high).any()
+            else None,
+        }
 
 
 def failure_message(full: dict[str, Any], hint: str = "re-run the same command") -> str:
@@ -136,6 +173,23 @@ PAPER_NUMBERS: dict[str, dict[str, str]] = {
 }
 
 
+def _region_cells(v: dict[str, Any]) -> str:
+    """The confidence columns of a report row: half-widths, split bound, two coverages."""
+    half = v.get("median_bias_halfwidth")
+    high = v.get("median_split_ci_high_hz")
+
+    def pct(x: float | None) -> str:
+        return "-" if x is None else f"{x:.0%}"
+
+    cells = [
+        "-" if half is None else "(" + ", ".join(f"{h * 1e3:.2g}" for h in half) + ")",
+        "-" if high is None else f"{high * 1e3:.2g}",
+        pct(v.get("bias_coverage")),
+        pct(v.get("split_coverage")),
+    ]
+    return " | ".join(cells)
+
+
 def markdown_report(full: dict[str, Any], command: str) -> str:
     """A side-by-side table of the paper's numbers and this study's (true splits)."""
     lines = [
@@ -143,8 +197,9 @@ def markdown_report(full: dict[str, Any], command: str) -> str:
         f"{len(full['failures'])} failed).",
         "",
         "| objective | model | iteration | paper | mean bias [V] | std [V] | < 10 mHz | "
-        "< 300 mHz | median true split [mHz] | 90th pct [mHz] | max [mHz] |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "< 300 mHz | median true split [mHz] | 90th pct [mHz] | max [mHz] | "
+        "95 % region: median ± [mV] | split up to [mHz] | bias coverage | split coverage |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for obj, per_model in full["summary"].items():
         for model, per_it in per_model.items():
@@ -165,6 +220,6 @@ def markdown_report(full: dict[str, Any], command: str) -> str:
                     f"| {obj} | {model} | {it} | {PAPER_NUMBERS.get(model, {}).get(it, '')} | "
                     f"{bias} | {std} | {v['under_10mHz']}/{v['runs']} | "
                     f"{v['under_300mHz']}/{v['runs']} | {fmt(v['median_split_hz'])} | "
-                    f"{fmt(pct.get('90'))} | {fmt(pct.get('100'))} |"
+                    f"{fmt(pct.get('90'))} | {fmt(pct.get('100'))} | {_region_cells(v)} |"
                 )
     return "\n".join(lines) + "\n"

@@ -25,6 +25,7 @@ from sysid_core.model import FittedModel
 
 __all__ = [
     "BiasSpace",
+    "ConfidenceRegion",
     "Goal",
     "TuningCriterion",
     "TuningResult",
@@ -63,8 +64,9 @@ def degenerate_bias(
     """Biases (volts) on electrodes ``pair``, the others at 0 V, that make ``K(w) = lam M``.
 
     The exact two-electrode solution (:func:`degenerate_w`) for stiffness ``k0`` and ``kp``
-    (one per electrode), with the root ``dv = v_gyro - sqrt(w)`` (right when ``v_gyro`` exceeds
-    the biases, as on the cloverleaf). Returns every electrode's bias.
+    (one per electrode), with the root ``dv = v_gyro - sign(v_gyro) sqrt(w)`` (the one nearer
+    0 V, right when ``|v_gyro|`` exceeds the biases, as on the cloverleaf). Returns every
+    electrode's bias.
     """
     kp = np.asarray(kp, dtype=float).reshape(-1, 2, 2)
     a, b = pair
@@ -73,8 +75,9 @@ def degenerate_bias(
     base = np.asarray(k0, dtype=float) + sum(w[p] * kp[p] for p in range(n_e) if p not in pair)
     wa, wb, _ = degenerate_w(base, kp[a], kp[b], np.asarray(m, dtype=float))
     bias = np.zeros(n_e)
-    bias[a] = structure_potential - np.sqrt(wa)
-    bias[b] = structure_potential - np.sqrt(wb)
+    sign = 1.0 if structure_potential >= 0.0 else -1.0
+    bias[a] = structure_potential - sign * np.sqrt(wa)
+    bias[b] = structure_potential - sign * np.sqrt(wb)
     return bias
 
 
@@ -179,6 +182,48 @@ class BiasSpace:
         return self.full_bias(tuned)
 
 
+@dataclass(frozen=True)
+class ConfidenceRegion:
+    """A tuning answer's confidence region (the method: :mod:`sysid_core.confidence`).
+
+    Attributes
+    ----------
+    level : float
+        Confidence level (0.95).
+    bias_ci : ndarray, shape (n_electrodes, 2)
+        Per electrode ``[low, high]`` volts, every electrode of the device (an electrode that
+        is not tuned has ``low = high`` = its bias); together a box of probability ``level``.
+    split_ci_hz : (float, float)
+        Range of the split at the answer's bias (Hz).
+    frequency_ci_hz : (float, float)
+        Interval of the mean modal frequency at the answer's bias (Hz).
+    samples : int
+        Number of models drawn.
+    """
+
+    level: float
+    bias_ci: np.ndarray
+    split_ci_hz: tuple[float, float]
+    frequency_ci_hz: tuple[float, float]
+    samples: int
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-friendly form (the keys of ``tuning.json`` and the ``--json`` line)."""
+        return {
+            "confidence_level": self.level,
+            "bias_ci": [[float(lo), float(hi)] for lo, hi in self.bias_ci],
+            "split_ci_hz": [float(v) for v in self.split_ci_hz],
+            "frequency_ci_hz": [float(v) for v in self.frequency_ci_hz],
+        }
+
+    def describe(self, tuned: list[int] | None = None) -> str:
+        """One line: ``±`` half-widths of the tuned electrodes' biases and the split's range."""
+        rows = range(len(self.bias_ci)) if tuned is None else tuned
+        half = ", ".join(f"±{0.5 * (self.bias_ci[p][1] - self.bias_ci[p][0]):.4f}" for p in rows)
+        lo, hi = self.split_ci_hz
+        return f"{self.level:.0%} region: bias [{half}] V, split {lo * 1e3:.3g}-{hi * 1e3:.3g} mHz"
+
+
 @dataclass
 class TuningResult:
     """A criterion's answer.
@@ -199,6 +244,9 @@ class TuningResult:
         The criterion's optimal value in Hz (split, or frequency error for ``target``).
     info : dict
         Anything else (target, max |dv|, ...).
+    confidence : ConfidenceRegion or None
+        How sure the answer is (set by the run from the model's covariance; ``None`` when
+        the fit states none).
     """
 
     bias: np.ndarray
@@ -208,6 +256,7 @@ class TuningResult:
     criterion: str
     value: float
     info: dict[str, Any] = field(default_factory=dict)
+    confidence: ConfidenceRegion | None = None
 
     @property
     def frequency_hz(self) -> float:
@@ -223,6 +272,7 @@ class TuningResult:
             "predicted_split_hz": self.split_hz,
             "value_hz": self.value,
             **{k: v for k, v in self.info.items() if isinstance(v, (int, float, str, list))},
+            **(self.confidence.as_dict() if self.confidence is not None else {}),
         }
 
 

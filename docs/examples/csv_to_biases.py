@@ -27,7 +27,7 @@ data = load_data(manifest)
 print(f"{data.sizes['experiment']} sweeps at biases {data['bias'].values.tolist()} V")
 
 # 2. One model for all of them (the paper's eq. 8, output dynamics, polynomial order 1).
-model = fit(data, "act", order=1)
+model = fit(data, "act")  # order 2, bias-dependent constant term, least squares
 for bias in data["bias"].values:
     modes = model.modal(bias)
     print(
@@ -39,6 +39,11 @@ for bias in data["bias"].values:
 tuned = predict_bias(model, "degenerate", bias_limits=(-10.0, 10.0))
 setting = ", ".join(f"{e} = {b:.4f} V" for e, b in zip(model.electrodes, tuned.bias, strict=True))
 print(f"set {setting}: both modes at {tuned.frequency_hz:.3f} Hz (predicted, one iteration)")
+region = tuned.confidence  # how sure: 95 % intervals from the fit's covariance
+if region is not None:
+    for e, (low, high) in zip(model.electrodes, region.bias_ci, strict=True):
+        print(f"  {e}: {low:.4f} .. {high:.4f} V (95 %)")
+    print(f"  split at that bias: {region.split_ci_hz[1] * 1e3:.2f} mHz or less (95 %)")
 
 # 4. Data against model (markers: data, lines: model), for the lab book.
 figure = fit_figure(data, model, title=f"{manifest.name}: data (markers) and model (lines)")

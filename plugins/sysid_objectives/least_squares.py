@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from sysid_core.conic import Solver
+from sysid_core.covariance import theta_covariance
 from sysid_core.objective import Objective, ObjectiveResult, Progress
 from sysid_core.problem import FitProblem
 from sysid_core.programs import least_squares_program
@@ -16,9 +17,9 @@ class LeastSquares(Objective):
     """``min Σ_{k,q} ||E_{k,q}||_F²`` subject to the constraints of (8): one small QP.
 
     The statistically efficient choice under random measurement noise: the same equation errors
-    and constraints as ``minimax``, all points weighted equally. With large deterministic
-    errors outside the model class (strong feedthrough) the worst-case criterion can be safer.
-    Takes no options.
+    and constraints as ``minimax``, all points weighted equally. It also states how uncertain
+    its answer is: the covariance of the unknowns (:func:`sysid_core.covariance.theta_covariance`),
+    from which every tuning answer gets its confidence region. Takes no options.
     """
 
     name = "least-squares"
@@ -43,4 +44,5 @@ class LeastSquares(Objective):
                 "mean_square": float(theta @ problem.gram @ theta),
                 "rms": float(np.sqrt(np.mean(r**2))),
             },
+            covariance=theta_covariance(problem, theta),
         )
