@@ -89,9 +89,14 @@ def study_cmd(
         for obj, per_model in full["summary"].items():
             for model, per_it in per_model.items():
                 for it, v in per_it.items():
+                    bias = (
+                        ""
+                        if v["mean_bias"] is None
+                        else f" mean bias {v['mean_bias']}, std {v['std_bias']},"
+                    )
                     out.print(
-                        f"{obj:>13} {model} iteration {it}: {v['runs']} runs, mean bias "
-                        f"{v['mean_bias']}, std {v['std_bias']}, true split < 10 mHz: "
+                        f"{obj:>13} {model} iteration {it}: {v['runs']} runs,{bias} true split "
+                        f"< 2 mHz: {v['under_2mHz']}, < 10 mHz: "
                         f"{v['under_10mHz']}, < 300 mHz: {v['under_300mHz']}, median "
                         f"{(v['median_split_hz'] or float('nan')) * 1e3:.2f} mHz"
                     )

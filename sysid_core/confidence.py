@@ -76,6 +76,31 @@ def _split_hz(t: float | np.ndarray, r: float | np.ndarray) -> np.ndarray:
     return np.asarray((np.sqrt(t + r) - np.sqrt(np.clip(t - r, 0.0, None))) / _TWO_PI)
 
 
+def _split_and_frequency(
+    t: np.ndarray, d: np.ndarray, t0: float, d0: np.ndarray, level: float
+) -> tuple[tuple[float, float], tuple[float, float]]:
+    """The split range over the ``level`` ellipse of the drawn ``d`` (centred on the model's
+    ``d0``) and the central interval of the drawn mean modal frequency (Hz)."""
+    cov_d = np.cov(d, rowvar=False)
+    q = -2.0 * math.log(1.0 - level)  # chi-square quantile, 2 degrees of freedom
+    lam_d, vec_d = np.linalg.eigh(cov_d)
+    lam_d = np.clip(lam_d, 1e-300, None)
+    angle = np.linspace(0.0, 2 * np.pi, 721)
+    unit = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    ring = d0 + math.sqrt(q) * (unit * np.sqrt(lam_d)) @ vec_d.T
+    radius = np.hypot(ring[:, 0], ring[:, 1])
+    inside = float(np.sum((vec_d.T @ d0) ** 2 / lam_d)) <= q
+    split_ci = (
+        0.0 if inside else float(_split_hz(t0, radius.min())),
+        float(_split_hz(t0, radius.max())),
+    )
+    r = np.hypot(d[:, 0], d[:, 1])
+    f_mean = 0.5 * (np.sqrt(np.clip(t + r, 0, None)) + np.sqrt(np.clip(t - r, 0, None))) / _TWO_PI
+    alpha = 1.0 - level
+    f_lo, f_hi = np.quantile(f_mean, [alpha / 2, 1 - alpha / 2])
+    return split_ci, (float(f_lo), float(f_hi))
+
+
 def confidence_region(
     model: FittedModel,
     result: TuningResult,
@@ -83,6 +108,7 @@ def confidence_region(
     level: float = DEFAULT_LEVEL,
     samples: int = DEFAULT_SAMPLES,
     seed: int = 0,
+    applied_bias: np.ndarray | None = None,
 ) -> ConfidenceRegion | None:
     """The region of ``result`` (a criterion's answer for ``model`` in ``space``).
 
@@ -102,6 +128,10 @@ def confidence_region(
         Models drawn.
     seed : int
         Seed of the draws.
+    applied_bias : ndarray, optional
+        Every electrode's bias as the device will really apply it (a DAC's nearest code), if
+        it says; the split and frequency ranges are for that bias (the bias box is not: it is
+        about the true degenerate bias).
     """
     if model.stiffness_factor is None:
         return None
@@ -126,36 +156,20 @@ def confidence_region(
     m = sym(draws[:, 0:3])
     k0 = sym(draws[:, 3:6])
     kp = sym(draws[:, 6:].reshape(samples, n_e, 3))  # (S, n_e, 2, 2)
-    k = k0 + np.einsum("p,sp...->s...", w_hat, kp)
-    t, d = _trace_dev(_normalise(m, k))
+    t, d = _trace_dev(_normalise(m, k0 + np.einsum("p,sp...->s...", w_hat, kp)))
     tp, dp = _trace_dev(_normalise(m, kp))  # (S, n_e), (S, n_e, 2)
-
-    # The model's own answer, and the ellipse of d.
     t_hat, d_hat = _trace_dev(_normalise(model.M[None], model.stiffness_w(w_hat)[None]))
     t0, d0 = float(t_hat[0]), d_hat[0]
-    cov_d = np.cov(d, rowvar=False)
-    q = -2.0 * math.log(1.0 - level)  # chi-square quantile, 2 degrees of freedom
-    lam_d, vec_d = np.linalg.eigh(cov_d)
-    lam_d = np.clip(lam_d, 1e-300, None)
-    angle = np.linspace(0.0, 2 * np.pi, 721)
-    unit = np.stack([np.cos(angle), np.sin(angle)], axis=1)
-    ring = d0 + math.sqrt(q) * (unit * np.sqrt(lam_d)) @ vec_d.T
-    radius = np.hypot(ring[:, 0], ring[:, 1])
-    inside = float(np.sum((vec_d.T @ d0) ** 2 / lam_d)) <= q
-    split_ci = (
-        0.0 if inside else float(_split_hz(t0, radius.min())),
-        float(_split_hz(t0, radius.max())),
-    )
-    alpha = 1.0 - level
-    f_mean = (
-        0.5
-        * (
-            np.sqrt(np.clip(t + np.hypot(d[:, 0], d[:, 1]), 0, None))
-            + np.sqrt(np.clip(t - np.hypot(d[:, 0], d[:, 1]), 0, None))
-        )
-        / _TWO_PI
-    )
-    f_lo, f_hi = np.quantile(f_mean, [alpha / 2, 1 - alpha / 2])
+
+    # Where the split is predicted: the applied bias if the device says, and the ellipse of d.
+    if applied_bias is None:
+        t_at, d_at, t_at0, d_at0 = t, d, t0, d0
+    else:
+        w_at = (v_gyro - np.asarray(applied_bias, dtype=float)[index]) ** 2
+        t_at, d_at = _trace_dev(_normalise(m, k0 + np.einsum("p,sp...->s...", w_at, kp)))
+        t_a, d_a = _trace_dev(_normalise(model.M[None], model.stiffness_w(w_at)[None]))
+        t_at0, d_at0 = float(t_a[0]), d_a[0]
+    split_ci, (f_lo, f_hi) = _split_and_frequency(t_at, d_at, t_at0, d_at0, level)
 
     # Each draw's degenerate (or on-target) point nearest w_hat.
     target = result.info.get("target_hz")
@@ -178,7 +192,7 @@ def confidence_region(
     sign = np.sign(v_gyro - bias[index])
     sign[sign == 0] = 1.0
     bias_draws = v_gyro - sign * np.sqrt(w)
-    a = alpha / n_t
+    a = (1.0 - level) / n_t
     lo, hi = np.quantile(bias_draws, [a / 2, 1 - a / 2], axis=0)
     box = np.column_stack([bias, bias])
     box[index, 0], box[index, 1] = lo, hi
@@ -186,6 +200,6 @@ def confidence_region(
         level=level,
         bias_ci=box,
         split_ci_hz=split_ci,
-        frequency_ci_hz=(float(f_lo), float(f_hi)),
+        frequency_ci_hz=(f_lo, f_hi),
         samples=samples,
     )

@@ -45,6 +45,7 @@ __all__ = [
     "make_dataset",
     "measured_mask",
     "read_netcdf",
+    "requested_bias",
     "save_dataset",
     "squared_potentials",
     "to_frd",
@@ -144,15 +145,28 @@ def experiment_from_measurement(
     structure_potential: float,
     device: str = "unknown",
 ) -> xr.Dataset:
-    """Wrap one device measurement (dims frequency, output, input) as a one-experiment data set."""
+    """Wrap one device measurement (dims frequency, output, input) as a one-experiment data set.
+
+    The experiment's ``bias`` is what the gyro really saw: the measurement's ``applied_bias``
+    attribute when the device reports one (a DAC's nearest code, a source's read-back) with one
+    finite value per electrode, else the requested ``bias``. The requested bias is kept in the
+    attribute ``requested_bias`` (a resumed run finds its measurements by it).
+    """
     if tuple(measurement.dims) != ("frequency", "output", "input"):
         raise DimensionError(
             f"a measurement must have dims ('frequency', 'output', 'input'), got {measurement.dims}"
         )
-    return make_dataset(
+    requested = np.asarray(bias, dtype=float).reshape(-1)
+    used = requested
+    applied = measurement.attrs.get("applied_bias")
+    if applied is not None:
+        values = np.atleast_1d(np.asarray(applied, dtype=float)).reshape(-1)
+        if values.shape == requested.shape and np.all(np.isfinite(values)):
+            used = values
+    ds = make_dataset(
         [np.asarray(measurement.values)],
         np.asarray(measurement["frequency"].values, dtype=float),
-        [list(bias)],
+        [used.tolist()],
         electrodes,
         structure_potential,
         device=device,
@@ -160,6 +174,15 @@ def experiment_from_measurement(
         inputs=[str(i) for i in measurement["input"].values],
         response_units=str(measurement.attrs.get("units", "V/V")),
     )
+    ds.attrs["requested_bias"] = requested.tolist()
+    return ds
+
+
+def requested_bias(ds: xr.Dataset) -> np.ndarray:
+    """The bias a one-experiment data set was requested at (its applied bias if not recorded)."""
+    if "requested_bias" in ds.attrs:
+        return np.atleast_1d(np.asarray(ds.attrs["requested_bias"], dtype=float)).reshape(-1)
+    return np.asarray(ds["bias"].values[0], dtype=float)
 
 
 def concat_experiments(datasets: Sequence[xr.Dataset]) -> xr.Dataset:

@@ -107,12 +107,19 @@ class SolverError(SysidError, RuntimeError):
         How the solve ended, in the toolkit's words.
     word : str or None
         The solver's own status word (for messages only).
+    x : ndarray or None
+        The solver's last iterate when it ended inaccurate (``AlmostSolved``): for callers that
+        check an answer independently (the tuning criteria recompute the split from the model),
+        never for a fit.
     """
 
-    def __init__(self, message: str, status: object = None, word: str | None = None) -> None:
+    def __init__(
+        self, message: str, status: object = None, word: str | None = None, x: object = None
+    ) -> None:
         super().__init__(message)
         self.status = status
         self.word = word
+        self.x = x
 
 
 class FitError(SysidError, RuntimeError):

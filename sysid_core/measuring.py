@@ -24,7 +24,7 @@ import xarray as xr
 from sysid_core.device import Device, SimulatedDevice, check_device
 from sysid_core.errors import BiasLimitError, DeviceError, InvalidAnswerError, SysidError
 
-__all__ = ["GuardedDevice", "check_answer", "check_bias", "ground_truth"]
+__all__ = ["GuardedDevice", "applied_bias", "check_answer", "check_bias", "ground_truth"]
 
 _DIMS = ("frequency", "output", "input")
 
@@ -34,6 +34,26 @@ def ground_truth(device: object) -> SimulatedDevice | None:
     :class:`SimulatedDevice`, else None."""
     raw = device.device if isinstance(device, GuardedDevice) else device
     return raw if isinstance(raw, SimulatedDevice) else None
+
+
+def applied_bias(device: object, bias: np.ndarray) -> np.ndarray | None:
+    """The bias ``device`` would really apply for ``bias``, if it says (else None).
+
+    Devices that quantise (a DAC) may offer ``applied_bias(bias)`` (optional, see
+    ``docs/writing-a-device.md``); an answer that is not one finite value per electrode, or an
+    error, counts as not saying.
+    """
+    raw = device.device if isinstance(device, GuardedDevice) else device
+    method = getattr(raw, "applied_bias", None)
+    if not callable(method):
+        return None
+    try:
+        values = np.asarray(method(np.asarray(bias, dtype=float)), dtype=float).reshape(-1)
+    except Exception:  # optional, informative only: never let it stop a run
+        return None
+    if values.shape != np.shape(bias) or not np.all(np.isfinite(values)):
+        return None
+    return values
 
 
 def check_bias(device: Device, bias: Sequence[float] | np.ndarray) -> np.ndarray:

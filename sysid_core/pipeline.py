@@ -50,7 +50,7 @@ from sysid_core.errors import ConfigError, FitWarning, UnreachableTuningError
 from sysid_core.evidence import WindowAssessment, assess_window
 from sysid_core.fit import fit
 from sysid_core.io import write_json
-from sysid_core.measuring import GuardedDevice, check_bias
+from sysid_core.measuring import GuardedDevice, applied_bias, check_bias
 from sysid_core.model import FittedModel
 from sysid_core.objective import Progress
 from sysid_core.registry import Registry, get_registry
@@ -148,10 +148,10 @@ class TuningRun:
         self.notes: list[str] = []
 
     # ------------------------------------------------------------------ measuring
-    def _design(self, bias: np.ndarray) -> np.ndarray:
-        design = design_experiments(
-            bias, self.space.index, self.config.experiment.bias_step, self.space.limits
-        )
+    def _design(self, bias: np.ndarray, it: int = 1) -> np.ndarray:
+        exp = self.config.experiment
+        step = exp.bias_step if it == 1 or exp.refine_bias_step is None else exp.refine_bias_step
+        design = design_experiments(bias, self.space.index, step, self.space.limits)
         check_rank_condition(
             design[:, self.space.index], self.space.structure_potential, self.space.tuned
         )
@@ -183,7 +183,7 @@ class TuningRun:
     def _identify(
         self, it: int, bias: np.ndarray, folder: Path, center_hz: float | None, split_hz: float
     ) -> tuple[xr.Dataset, FittedModel]:
-        design = self._design(bias)
+        design = self._design(bias, it)
         freqs = self.plan.refine(center_hz, split_hz)
         parts = [self._measure(b, freqs, folder / f"exp{j}.nc") for j, b in enumerate(design)]
         ds = concat_experiments(parts).sel(electrode=self.space.tuned)
@@ -316,7 +316,9 @@ class TuningRun:
             except UnreachableTuningError as exc:
                 result = self._best_effort(exc, model, space, it)
             new_bias = check_bias(self.device.device, result.bias)
-            result.confidence = confidence_region(model, result, space)
+            result.confidence = confidence_region(
+                model, result, space, applied_bias=applied_bias(self.device.device, new_bias)
+            )
             regions.append(result.confidence)
             write_json(folder / "tuning.json", result.as_dict())
             sure = (

@@ -21,7 +21,7 @@ from typing import IO, Any
 import numpy as np
 import xarray as xr
 
-from sysid_core.data import load_dataset, save_dataset
+from sysid_core.data import load_dataset, requested_bias, save_dataset
 from sysid_core.errors import InvalidAnswerError, RunFolderError, RunLockedError
 from sysid_core.io import atomic_write, write_json
 
@@ -177,7 +177,7 @@ class RunFolder:
             same_grid = ds.sizes["frequency"] == freqs.size and np.allclose(
                 ds["frequency"].values, freqs, rtol=0, atol=1e-9
             )
-            if same_grid and np.allclose(ds["bias"].values[0], bias, rtol=0, atol=1e-12):
+            if same_grid and np.allclose(requested_bias(ds), bias, rtol=0, atol=1e-12):
                 return ds, True
             raise RunFolderError(
                 f"{path} holds a measurement at another bias or frequency grid than this run "

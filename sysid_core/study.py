@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 from sysid_core.io import atomic_write, write_json
 from sysid_core.study_exec import BatchProgress, execute
 from sysid_core.study_plan import StudyConfig, StudyPlan, load_study_config, plan_study
-from sysid_core.study_plots import plot_study
+from sysid_core.study_plots import plot_population, plot_study
 from sysid_core.study_report import failure_message, markdown_report, summarize, to_dataset
 
 if TYPE_CHECKING:
@@ -73,12 +73,13 @@ def run_study(
     ds = to_dataset(results, electrodes, cfg.study.iterations)
     ds.attrs.update({"device": cfg.pipeline.device.name, "tuned": json.dumps(tuned)})
     atomic_write(out / "results.nc", lambda tmp: ds.to_netcdf(tmp, engine="h5netcdf"))
-    summary = summarize(ds, tuned_index)
+    population = cfg.study.gyros is not None
+    summary = summarize(ds, tuned_index, population)
     failures = [
         {
             "key": r["key"],
             "start": r["start"],
-            "tuned_start": [r["start"][i] for i in tuned_index],
+            "tuned_start": [r["start"][i] for i in tuned_index if i < len(r["start"])],
             "error": r["error"],
         }
         for r in results
@@ -92,11 +93,14 @@ def run_study(
         "failures": failures,
         "elapsed_s": elapsed,
         "tuned": tuned,
+        "population": population,
         "out": str(out),
     }
     write_json(out / "summary.json", full)
     text = markdown_report(full, command or "sysid study")
     atomic_write(out / "report.md", lambda tmp: tmp.write_text(text))
-    if plots:
+    if plots and population:
+        plot_population(ds, out)
+    elif plots:
         plot_study(ds, device, tuned_index, out, cfg.study.tuned_bias)
     return full

@@ -28,13 +28,16 @@ from sysid_core.errors import ConfigError, PluginNotFoundError, SysidError
 from sysid_core.registry import Registry
 
 __all__ = [
+    "AUTO_STRUCTURE",
     "RunSpec",
     "StudyConfig",
     "StudyPlan",
     "StudySettings",
     "load_study_config",
+    "make_population_specs",
     "make_specs",
     "plan_study",
+    "population_seeds",
 ]
 
 #: Names that become part of a run's key, hence of file names.
@@ -52,6 +55,7 @@ class StudySettings(BaseModel):
     iterations: int = Field(2, ge=1, le=10)
     tuned_bias: list[float] | None = None
     seed: int = 0
+    gyros: int | None = Field(None, ge=1, le=100_000)
 
 
 class _StudyTable(BaseModel):
@@ -92,7 +96,12 @@ def load_study_config(path: str | os.PathLike[str]) -> StudyConfig:
 
 @dataclass(frozen=True)
 class RunSpec:
-    """One independent run of the study."""
+    """One independent run of the study.
+
+    In a population study (``[study] gyros``) ``index`` is the gyro's position, ``seed`` its
+    device seed and ``structure`` the name in ``[study] structures`` (``auto`` for the
+    structure the device names); ``config`` holds what the run really uses.
+    """
 
     key: str
     index: int
@@ -125,8 +134,64 @@ def _starts(cfg: StudyConfig, n_electrodes_total: int, tuned_index: list[int]) -
     return full
 
 
+#: ``[study] structures`` entry for the structure each device names (its ``structure``).
+AUTO_STRUCTURE = "auto"
+
+
+def population_seeds(cfg: StudyConfig) -> list[int]:
+    """Device seeds of a population study: ``seed * 100003 + k`` for ``k < gyros``."""
+    return [cfg.study.seed * 100003 + k for k in range(cfg.study.gyros or 0)]
+
+
+def device_structure(device: Device, seed: int) -> str:
+    """The model structure a device names (its ``structure`` attribute), for ``auto``."""
+    name = getattr(device, "structure", None)
+    if not isinstance(name, str) or not name:
+        raise ConfigError(
+            f"[study] structures: {AUTO_STRUCTURE!r} needs a device that names its model "
+            f"structure (a 'structure' attribute, as random-gyro has); the device with seed "
+            f'{seed} does not: list the structures instead, e.g. structures = ["act"]'
+        )
+    return name
+
+
+def make_population_specs(
+    cfg: StudyConfig, out: Path, devices: list[tuple[int, Device]]
+) -> list[RunSpec]:
+    """The runs of a population study: every gyro from its native state (0 V everywhere)."""
+    specs = []
+    for objective in cfg.objectives:
+        for structure in cfg.study.structures:
+            for i, (seed, device) in enumerate(devices):
+                data = cfg.pipeline.model_dump(mode="json")
+                resolved = (
+                    device_structure(device, seed) if structure == AUTO_STRUCTURE else structure
+                )
+                data["model"]["structure"] = resolved
+                data["objective"]["name"] = objective
+                start = [0.0] * len(device.electrodes)
+                data["tuning"]["start_bias"] = start
+                data["tuning"]["max_iterations"] = cfg.study.iterations
+                data["tuning"]["acceptance_hz"] = 1e-12  # run every iteration
+                data["device"]["seed"] = seed
+                key = f"{objective}-{structure}-{i:03d}"
+                specs.append(
+                    RunSpec(
+                        key,
+                        i,
+                        objective,
+                        structure,
+                        tuple(start),
+                        seed,
+                        data,
+                        str(out / "runs" / key),
+                    )
+                )
+    return specs
+
+
 def make_specs(cfg: StudyConfig, out: Path, electrodes: list[str]) -> list[RunSpec]:
-    """Every run of the study, in a fixed order."""
+    """Every run of a study over start biases, in a fixed order."""
     tuned = cfg.pipeline.tuning.electrodes or electrodes
     index = [electrodes.index(e) for e in tuned]
     starts = _starts(cfg, len(electrodes), index)
@@ -208,6 +273,16 @@ def _check_list(key: str, values: list[Any] | None, example: str, unset: str) ->
 def _check_settings(cfg: StudyConfig) -> None:
     """The ``[study]`` lists: non-empty, no repeats, names usable in file names."""
     st = cfg.study
+    if st.gyros is not None and (st.starts is not None or "grid" in st.model_fields_set):
+        raise ConfigError(
+            "[study] gyros runs every gyro from its native state (0 V on every electrode): "
+            "remove starts and grid, or remove gyros to study start biases on one device"
+        )
+    if st.gyros is None and AUTO_STRUCTURE in st.structures:
+        raise ConfigError(
+            f"[study] structures: {AUTO_STRUCTURE!r} is for population studies ([study] gyros); "
+            'name the structures, e.g. structures = ["act", "sen"]'
+        )
     if st.starts is not None and "grid" in st.model_fields_set:
         raise ConfigError(
             "[study] has both starts and grid: keep starts (explicit start points) or grid "
@@ -265,6 +340,8 @@ def plan_study(
     registry = registry or get_registry()
     _check_settings(cfg)
     pc = cfg.pipeline
+    if cfg.study.gyros is not None:
+        return _plan_population(cfg, out, registry)
     try:
         device = registry.device(pc.device.name, **pc.device.options)
     except SysidError as exc:
@@ -291,11 +368,55 @@ def plan_study(
     return StudyPlan(device, electrodes, tuned, tuned_index, specs)
 
 
+def _plan_population(
+    cfg: StudyConfig, out: str | os.PathLike[str], registry: Registry
+) -> StudyPlan:
+    """:func:`plan_study` of a population study: one device per seed, each run checked."""
+    from sysid_core.pipeline import TuningRun
+
+    pc = cfg.pipeline
+    devices: list[tuple[int, Device]] = []
+    for seed in population_seeds(cfg):
+        try:
+            devices.append(
+                (seed, registry.device(pc.device.name, **{**pc.device.options, "seed": seed}))
+            )
+        except SysidError as exc:
+            raise ConfigError(f"[device] with seed {seed}: {_one_line(exc)}") from exc
+    electrodes: list[str] = []
+    for _, device in devices:
+        electrodes += [str(e) for e in device.electrodes if str(e) not in electrodes]
+    tuned = list(pc.tuning.electrodes or electrodes)
+    for seed, device in devices:
+        missing = [e for e in pc.tuning.electrodes or [] if e not in device.electrodes]
+        if missing:
+            raise ConfigError(
+                f"[tuning] electrodes: {missing} not on {pc.device.name!r} with seed {seed}, "
+                f"whose electrodes are {list(device.electrodes)}"
+            )
+    _check_names(cfg, registry)
+    specs = make_population_specs(cfg, Path(out).absolute(), devices)
+    nowhere = Path(out).absolute() / f".check-{os.getpid()}-{time.monotonic_ns()}"
+    by_seed = dict(devices)
+    for spec in specs:
+        run_cfg = parse_config(spec.config, f"study run {spec.key}")
+        try:
+            TuningRun(run_cfg, nowhere, device=by_seed[spec.seed], registry=registry, plots=False)
+        except SysidError as exc:
+            raise ConfigError(f"study run {spec.key} cannot start: {_one_line(exc)}") from exc
+    tuned_index = [electrodes.index(e) for e in tuned]
+    return StudyPlan(devices[0][1], electrodes, tuned, tuned_index, specs)
+
+
 def _check_names(cfg: StudyConfig, registry: Registry) -> None:
     """Every component name the study uses is installed (the message names its key)."""
     pc = cfg.pipeline
     objectives = "[study] objectives" if cfg.study.objectives is not None else "[objective] name"
-    wanted = [("[study] structures", "model structure", s) for s in cfg.study.structures]
+    wanted = [
+        ("[study] structures", "model structure", s)
+        for s in cfg.study.structures
+        if s != AUTO_STRUCTURE
+    ]
     wanted += [(objectives, "objective", o) for o in cfg.objectives]
     wanted += [("[solver]", "solver", pc.solver.name)]
     wanted += [("[tuning] criterion", "tuning criterion", pc.tuning.criterion)]

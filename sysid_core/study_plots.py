@@ -11,7 +11,7 @@ import xarray as xr
 from sysid_core.device import SimulatedDevice
 from sysid_core.report import save_figure
 
-__all__ = ["plot_study", "true_split_map"]
+__all__ = ["plot_population", "plot_study", "true_split_map"]
 
 
 def true_split_map(
@@ -108,4 +108,45 @@ def plot_study(
                 )
                 path = out / f"fig-{obj}-{model}-iter{int(it)}.png"
                 paths.append(save_figure(fig, path))
+    return paths
+
+
+def plot_population(ds: xr.Dataset, out: Path, goal_hz: float = 0.002) -> list[Path]:
+    """One PNG per objective and model: the distribution of true splits after each iteration.
+
+    An empirical cumulative distribution per iteration (log split axis), with the ``goal_hz``
+    line and the fraction of gyros under it in the legend.
+    """
+    from matplotlib.figure import Figure
+
+    paths = []
+    for obj in ds["objective"].values:
+        for model in ds["model"].values:
+            fig = Figure(figsize=(6.4, 4.4), layout="constrained")
+            ax = fig.subplots()
+            sel = ds.sel(objective=obj, model=model)
+            n = 0
+            for it in sel["iteration"].values:
+                s = sel["true_split_hz"].sel(iteration=it).values
+                s = np.sort(s[np.isfinite(s)])
+                if s.size == 0:
+                    continue
+                n = max(n, s.size)
+                under = float((s < goal_hz).mean())
+                y = np.arange(1, s.size + 1) / s.size
+                ax.step(
+                    np.clip(s, 1e-6, None) * 1e3,
+                    y,
+                    where="post",
+                    label=f"iteration {int(it)}: {under:.0%} < {goal_hz * 1e3:g} mHz",
+                )
+            ax.axvline(goal_hz * 1e3, color="0.4", linestyle="--", linewidth=0.8)
+            ax.set_xscale("log")
+            ax.set_xlabel("true split after the iteration [mHz]")
+            ax.set_ylabel("fraction of gyros")
+            ax.set_ylim(0, 1.02)
+            ax.grid(True, which="both", alpha=0.3)
+            ax.legend(fontsize=8, loc="lower right")
+            ax.set_title(f"{n} gyros, {model} model, {obj}", fontsize=9)
+            paths.append(save_figure(fig, out / f"fig-{obj}-{model}-population.png"))
     return paths

@@ -233,7 +233,8 @@ def test_unreachable_target_ends_the_run(tmp_path: Path) -> None:
     assert 4 + 1 + 4 <= len(dev.calls) <= 4 + 4 + 4
     second = [call[0] for call in dev.calls[-4:]]
     np.testing.assert_allclose(second[0], summary["bias"])
-    np.testing.assert_allclose(np.subtract(second[1:], second[0]), -np.eye(3), atol=1e-12)
+    # the second iteration's design steps by refine_bias_step (0.25 V), down from 10 V
+    np.testing.assert_allclose(np.subtract(second[1:], second[0]), -0.25 * np.eye(3), atol=1e-12)
 
 
 def test_unreachable_on_the_last_iteration_measures_nothing_more(tmp_path: Path) -> None:

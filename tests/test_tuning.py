@@ -18,7 +18,8 @@ from sysid_criteria import Degenerate, MinMaxBias, Target
 from sysid_models import ActStructure
 from sysid_solvers import ClarabelSolver
 
-from sysid_core.errors import BiasLimitError, ConfigError, UnreachableTuningError
+from sysid_core.conic import SolveStatus
+from sysid_core.errors import BiasLimitError, ConfigError, SolverError, UnreachableTuningError
 from sysid_core.model import FittedModel
 from sysid_core.options import build
 from sysid_core.simulation import GyroTruth
@@ -325,3 +326,30 @@ def test_criteria_return_biases_inside_the_limits(model_space, name: str, target
         assert np.max(np.abs(res.frequencies_hz - target)) <= criterion.tolerance_hz + 1e-6
     else:
         assert res.split_hz <= criterion.tolerance_hz + 1e-9
+
+
+class _AlmostSolved(ClarabelSolver):
+    """A solver that answers correctly but reports every solve as inaccurate (``AlmostSolved``),
+    as Clarabel did for 4 of 100 random gyros' min-max programs."""
+
+    def solve(self, program):
+        x = SOLVER.solve(program).x
+        raise SolverError("ended AlmostSolved", SolveStatus.INACCURATE, "AlmostSolved", x=x)
+
+
+def test_an_inaccurate_spread_solve_is_used_and_checked(truth: GyroTruth) -> None:
+    """The criteria recompute the split from the model at the solver's point, so an inaccurate
+    end gives the same answer as an accurate one; a failed solve still raises."""
+    tuned = ["B1", "B2", "B3"]
+    model, sp = exact_model(truth, tuned), space(truth, tuned)
+    exact = MinMaxBias(solver=SOLVER).solve(model, sp)
+    almost = MinMaxBias(solver=_AlmostSolved()).solve(model, sp)
+    np.testing.assert_allclose(almost.bias, exact.bias, atol=1e-6)
+    assert almost.split_hz < 1e-5
+
+    class _Failed(_AlmostSolved):
+        def solve(self, program):
+            raise SolverError("numerical error", SolveStatus.FAILED, "NumericalError")
+
+    with pytest.raises(SolverError):
+        MinMaxBias(solver=_Failed()).solve(model, sp)

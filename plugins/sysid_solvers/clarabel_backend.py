@@ -116,5 +116,6 @@ class ClarabelSolver(Solver):
                 "or check the data for outliers",
                 status,
                 raw,
+                x=np.asarray(sol.x) if status is SolveStatus.INACCURATE else None,
             )
         return ConicSolution(x=np.asarray(sol.x), iterations=int(sol.iterations))

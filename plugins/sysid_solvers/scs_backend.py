@@ -98,5 +98,6 @@ class ScsSolver(Solver):
                 "'clarabel', or check the data",
                 status,
                 raw,
+                x=np.asarray(out["x"]) if status is SolveStatus.INACCURATE else None,
             )
         return ConicSolution(x=np.asarray(out["x"]), iterations=int(info["iter"]))
