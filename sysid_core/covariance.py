@@ -127,22 +127,25 @@ def theta_covariance(problem: FitProblem, theta: np.ndarray) -> np.ndarray | Non
     return 0.5 * (cov + cov.T)
 
 
-def stiffness_names(electrodes: list[str]) -> list[str]:
+def stiffness_names(electrodes: list[str], quadratic: bool = False) -> list[str]:
     """Names of the stiffness parameters, in :func:`stiffness_map` order."""
     names = [f"M{ij}" for ij in ("11", "12", "22")] + [f"K0_{ij}" for ij in ("11", "12", "22")]
     names += [f"K_{e}_{ij}" for e in electrodes for ij in ("11", "12", "22")]
+    if quadratic:
+        names += [f"L_{e}_{ij}" for e in electrodes for ij in ("11", "12", "22")]
     return names
 
 
 def stiffness_map(problem: FitProblem) -> np.ndarray:
     """The linear map from the scaled unknowns to the physical stiffness parameters.
 
-    Rows: ``M`` (m11, m12, m22), ``K0`` ((rad/s)²), then each ``K_p`` ((rad/s)²/V²), each as
-    (11, 12, 22); columns: ``theta``. The same map as :func:`sysid_core.model.model_from_problem`.
+    Rows: ``M`` (m11, m12, m22), ``K0`` ((rad/s)²), then each ``K_p`` ((rad/s)²/V²), then
+    each ``L_p`` ((rad/s)²/V⁴, quadratic law only), each as (11, 12, 22); columns: ``theta``.
+    The same map as :func:`sysid_core.model.model_from_problem`.
     """
     s, lay = problem.scaling, problem.layout
     n_e = lay.n_electrodes
-    t = np.zeros((6 + 3 * n_e, lay.n))
+    t = np.zeros((6 + 3 * n_e + (3 * n_e if lay.quadratic else 0), lay.n))
     eye = np.eye(3)
     t[0:3, lay.M] = eye
     t[3:6, lay.M] = s.omega0**2 * eye
@@ -151,6 +154,12 @@ def stiffness_map(problem: FitProblem) -> np.ndarray:
         kp = s.omega0**2 * s.eps / s.w_scale[p] * eye
         t[6 + 3 * p : 9 + 3 * p, lay.K(p)] = kp
         t[3:6, lay.K(p)] -= s.w_center[p] * kp
+    if lay.quadratic:
+        assert s.q_center is not None and s.q_scale is not None
+        for p in range(n_e):
+            lp = s.omega0**2 * s.eps / s.q_scale[p] * eye
+            t[6 + 3 * n_e + 3 * p : 9 + 3 * n_e + 3 * p, lay.L(p)] = lp
+            t[3:6, lay.L(p)] -= s.q_center[p] * lp
     return t
 
 

@@ -7,6 +7,7 @@ objects passed in are used as they are (the pipeline passes the ones it built).
 
 from __future__ import annotations
 
+import copy
 import os
 import time
 import warnings
@@ -19,13 +20,14 @@ from threadpoolctl import threadpool_limits
 from sysid_core.config import DEFAULT_BIAS_TERMS, DEFAULT_OBJECTIVE, DEFAULT_ORDER
 from sysid_core.conic import Solver
 from sysid_core.data import measured_mask, read_netcdf
-from sysid_core.errors import DataError, FitWarning
+from sysid_core.errors import DataError, FitWarning, RankConditionError, TooFewExperimentsError
 from sysid_core.model import FittedModel, model_from_dataset, model_from_problem
 from sysid_core.objective import Objective, Progress
 from sysid_core.options import accepted_options
 from sysid_core.problem import FitProblem
 from sysid_core.registry import Registry, get_registry
 from sysid_core.structures import ModelStructure
+from sysid_core.validation import check_rank_condition
 
 __all__ = ["RESONANCE_RATIO", "check_fit", "fit", "load_model"]
 
@@ -59,6 +61,7 @@ def fit(
     solver_options: dict[str, Any] | None = None,
     registry: Registry | None = None,
     bias_terms: int | None = None,
+    stiffness: str | None = None,
 ) -> FittedModel:
     """Fit one bias-dependent model to every experiment of ``dataset`` at once.
 
@@ -84,6 +87,11 @@ def fit(
         When ``structure`` is a name: the polynomial's lowest degrees that depend on the bias
         (default 1 for structures that take it; 0 is the paper's model, see
         :class:`~sysid_core.structures.ModelStructure`).
+    stiffness : str, optional
+        When ``structure`` is a name: the stiffness law in ``w``, ``"linear"`` (default, the
+        paper's), ``"quadratic"`` (adds ``L_p w_p²``; needs a two-sided design) or ``"auto"``
+        (the quadratic law if a Wald test of its terms rejects them being zero at 99 %, else
+        the linear law on the same data; ``model.meta["stiffness_law"]`` says which).
 
     Returns
     -------
@@ -118,6 +126,8 @@ def fit(
         accepted, _ = accepted_options(factory)
         if bias_terms is not None or "bias_terms" in accepted:
             extra["bias_terms"] = DEFAULT_BIAS_TERMS if bias_terms is None else bias_terms
+        if stiffness is not None:
+            extra["stiffness"] = stiffness
     structure = _component(
         registry,
         structure,
@@ -147,14 +157,92 @@ def fit(
     )
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be callable, not {type(progress).__name__}")
+    if getattr(structure, "stiffness", "linear") == "auto":
+        model = _fit_auto_law(dataset, structure, objective, solver, progress)
+    else:
+        model = _fit_one(dataset, structure, objective, solver, progress)
+    for message in check_fit(dataset, model):
+        warnings.warn(message, FitWarning, stacklevel=2)
+    return model
+
+
+def _fit_one(
+    dataset: xr.Dataset,
+    structure: ModelStructure,
+    objective: Objective,
+    solver: Solver,
+    progress: Progress | None,
+) -> FittedModel:
     t0 = time.perf_counter()
     with threadpool_limits(limits=1, user_api="blas"):
         problem = FitProblem(dataset, structure)
         result = objective.fit(problem, solver, progress)
     elapsed = time.perf_counter() - t0
-    model = model_from_problem(problem, result, solver=solver.name, fit_time_s=elapsed)
-    for message in check_fit(dataset, model):
-        warnings.warn(message, FitWarning, stacklevel=2)
+    return model_from_problem(problem, result, solver=solver.name, fit_time_s=elapsed)
+
+
+#: Confidence level of the test that keeps the quadratic stiffness law (``stiffness = "auto"``).
+LAW_TEST_LEVEL = 0.99
+
+
+def law_statistic(model: FittedModel) -> tuple[float, int] | None:
+    """Wald statistic of the quadratic terms ``L_p`` of a least-squares fit, and its degrees
+    of freedom: ``l^T Cov(l)^+ l`` over the entries (11, 12, 22) of every ``L_p``; χ²-distributed
+    when the law is linear. ``None`` without ``L_p`` or without a covariance (minimax)."""
+    if model.Lp is None or model.stiffness_factor is None or not len(model.electrodes):
+        return None
+    n_l = 3 * len(model.electrodes)
+    rows = model.stiffness_factor[-n_l:]
+    cov = rows @ rows.T
+    values = np.concatenate([[lp[0, 0], lp[0, 1], lp[1, 1]] for lp in model.Lp])
+    lam, vec = np.linalg.eigh(cov)
+    keep = lam > 1e-12 * max(float(lam.max()), 1e-300)
+    proj = vec[:, keep].T @ values
+    return float(np.sum(proj**2 / lam[keep])), int(keep.sum())
+
+
+def _fit_auto_law(
+    dataset: xr.Dataset,
+    structure: ModelStructure,
+    objective: Objective,
+    solver: Solver,
+    progress: Progress | None,
+) -> FittedModel:
+    """``stiffness = "auto"``: the quadratic law where the data show it, else the linear one.
+
+    With a design that identifies it (two-sided), the quadratic law is fitted and kept if the
+    Wald test of its terms (:func:`law_statistic`) rejects ``L_p = 0`` at
+    :data:`LAW_TEST_LEVEL`; otherwise (or without a covariance, or with a one-sided design) the
+    linear law is fitted to the same data. ``model.meta["stiffness_law"]`` says which, with the
+    statistic and the threshold.
+    """
+    import scipy.stats
+
+    linear, quadratic = copy.copy(structure), copy.copy(structure)
+    linear.stiffness, quadratic.stiffness = "linear", "quadratic"
+    bias = np.asarray(dataset["bias"].values, dtype=float)
+    vg = float(dataset.attrs["structure_potential"])
+    try:
+        if bias.shape[1] == 0:
+            raise TooFewExperimentsError("no bias electrodes: nothing depends on w")
+        check_rank_condition(bias, vg, quadratic=True)
+    except (RankConditionError, TooFewExperimentsError):
+        model = _fit_one(dataset, linear, objective, solver, progress)
+        model.meta.update(stiffness_law="linear", law_test="design does not identify L_p")
+        return model
+    quad = _fit_one(dataset, quadratic, objective, solver, progress)
+    found = law_statistic(quad)
+    if found is not None:
+        stat, dof = found
+        threshold = float(scipy.stats.chi2.ppf(LAW_TEST_LEVEL, dof))
+        facts: dict[str, object] = {"law_statistic": stat, "law_threshold": threshold}
+        if stat > threshold:
+            quad.meta.update(stiffness_law="quadratic", **facts)
+            return quad
+    else:
+        facts = {"law_test": "no covariance (minimax): the linear law is kept"}
+    model = _fit_one(dataset, linear, objective, solver, progress)
+    model.meta.update(stiffness_law="linear", **facts)
     return model
 
 
@@ -218,5 +306,10 @@ def load_model(path: str | os.PathLike[str], registry: Registry | None = None) -
         str(ds.attrs["structure"]),
         order=int(ds.attrs["order"]),
         **({"bias_terms": int(ds.attrs["bias_terms"])} if "bias_terms" in ds.attrs else {}),
+        **(
+            {"stiffness": str(ds.attrs["stiffness"])}
+            if ds.attrs.get("stiffness", "linear") != "linear"
+            else {}
+        ),
     )
     return model_from_dataset(ds, structure)

@@ -22,6 +22,7 @@ and file loading are already in their own modules.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import numbers
 import os
@@ -96,9 +97,12 @@ class FittedModel:
         Names of the two output and the two input channels (the data set's ``output`` and
         ``input`` coordinates); they name the channels of :meth:`to_statespace` and
         :meth:`to_frd`.
+    Lp : ndarray (n_e, 2, 2) or None
+        Quadratic stiffness per electrode (per V⁴) of the ``quadratic`` stiffness law:
+        ``K(w) = K0 + sum_p (K_p w_p + L_p w_p²)``; ``None`` for the paper's linear law.
     stiffness_factor : ndarray or None
         A square root ``F`` of the covariance ``F Fᵀ`` of the stiffness parameters ``M``,
-        ``K0``, ``K_p`` (each as its entries 11, 12, 22; order and units in
+        ``K0``, ``K_p`` and ``L_p`` if any (each as its entries 11, 12, 22; order and units in
         :func:`sysid_core.covariance.stiffness_map`), when the objective states a covariance
         (least squares); what the tuning's confidence regions come from
         (:mod:`sysid_core.confidence`). Kept as a factor: ``K0`` and ``M`` are strongly
@@ -122,12 +126,17 @@ class FittedModel:
     inputs: list[str] = field(default_factory=lambda: list(DEFAULT_INPUTS))
     poly_w: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 2, 2), dtype=complex))
     stiffness_factor: np.ndarray | None = None
+    Lp: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if self.poly_w.size == 0:
             self.poly_w = np.zeros((0, len(self.electrodes), 2, 2), dtype=complex)
+        if self.Lp is not None:
+            self.Lp = np.asarray(self.Lp, dtype=float).reshape(len(self.electrodes), 2, 2)
         if self.stiffness_factor is not None:
-            n = 6 + 3 * len(self.electrodes)
+            n = (6 + 3 * len(self.electrodes)) + (
+                3 * len(self.electrodes) if self.Lp is not None else 0
+            )
             self.stiffness_factor = np.asarray(self.stiffness_factor, dtype=float)
             if self.stiffness_factor.ndim != 2 or self.stiffness_factor.shape[0] != n:
                 raise DataError(
@@ -216,8 +225,43 @@ class FittedModel:
         return squared_potentials(self.structure_potential, self.check_bias(bias))
 
     def stiffness_w(self, w: np.ndarray) -> np.ndarray:
-        """``K0 + sum_p K_p w_p`` for squared potentials ``w``."""
-        return self.K0 + np.tensordot(np.asarray(w, dtype=float), self.Kp, axes=1)
+        """``K0 + sum_p K_p w_p`` (plus ``L_p w_p²``) for squared potentials ``w``."""
+        w = np.asarray(w, dtype=float)
+        k = self.K0 + np.tensordot(w, self.Kp, axes=1)
+        if self.Lp is not None:
+            k = k + np.tensordot(w**2, self.Lp, axes=1)
+        return k
+
+    def linearized(self, w0: np.ndarray) -> FittedModel:
+        """The model with its stiffness replaced by its tangent at squared potentials ``w0``.
+
+        The tuning criteria (and the confidence regions) work with a stiffness that is linear
+        in ``w``; a ``quadratic`` model is linearized at a point and solved again there until
+        the answer stops moving (:func:`sysid_core.tuning.solve_criterion`). Its
+        :attr:`stiffness_factor` is mapped by the same linear map. A linear model is returned
+        as it is.
+        """
+        if self.Lp is None:
+            return self
+        w0 = np.asarray(w0, dtype=float).reshape(-1)
+        n_e = len(self.electrodes)
+        factor = None
+        if self.stiffness_factor is not None:
+            t = np.zeros((6 + 3 * n_e, 6 + 6 * n_e))
+            t[: 6 + 3 * n_e, : 6 + 3 * n_e] = np.eye(6 + 3 * n_e)
+            for p in range(n_e):
+                lp = slice(6 + 3 * n_e + 3 * p, 9 + 3 * n_e + 3 * p)
+                t[3:6, lp] = -(w0[p] ** 2) * np.eye(3)
+                t[6 + 3 * p : 9 + 3 * p, lp] = 2.0 * w0[p] * np.eye(3)
+            factor = t @ self.stiffness_factor
+        return dataclasses.replace(
+            self,
+            K0=self.K0 - np.tensordot(w0**2, self.Lp, axes=1),
+            Kp=self.Kp + 2.0 * w0[:, None, None] * self.Lp,
+            Lp=None,
+            stiffness_factor=factor,
+            meta={**self.meta, "linearized_at_w": w0.tolist()},
+        )
 
     def stiffness(self, bias: Sequence[float] | np.ndarray | None = None) -> np.ndarray:
         """Total stiffness at ``bias`` (volts relative to ground)."""
@@ -345,6 +389,7 @@ class FittedModel:
                     if self.stiffness_factor is not None
                     else {}
                 ),
+                **({"Lp": (("electrode", "row", "col"), self.Lp)} if self.Lp is not None else {}),
             },
             coords={
                 "electrode": list(self.electrodes),
@@ -356,6 +401,7 @@ class FittedModel:
                 "structure": self.structure.name,
                 "order": self.structure.order,
                 "bias_terms": self.structure.bias_terms,
+                "stiffness": getattr(self.structure, "stiffness", "linear"),
                 "omega_center": self.omega_center,
                 "omega_half": self.omega_half,
                 "structure_potential": self.structure_potential,
@@ -409,6 +455,7 @@ def model_from_dataset(ds: xr.Dataset, structure: ModelStructure) -> FittedModel
         outputs=_names(ds, "output", DEFAULT_OUTPUTS),
         inputs=_names(ds, "input", DEFAULT_INPUTS),
         stiffness_factor=ds["stiffness_factor"].values if "stiffness_factor" in ds else None,
+        Lp=ds["Lp"].values if "Lp" in ds else None,
     )
 
 
@@ -435,6 +482,16 @@ def model_from_problem(problem: FitProblem, result: ObjectiveResult, **meta: obj
     ).reshape(-1, 2, 2)
     k_center = s.omega0**2 * (m + s.eps * sym(th[lay.D]))
     k0 = k_center - np.tensordot(s.w_center, kp, axes=1) if len(kp) else k_center
+    lp = None
+    if lay.quadratic:
+        assert s.q_center is not None and s.q_scale is not None
+        lp = np.array(
+            [
+                s.omega0**2 * s.eps * sym(th[lay.L(p)]) / s.q_scale[p]
+                for p in range(lay.n_electrodes)
+            ]
+        ).reshape(-1, 2, 2)
+        k0 = k0 - np.tensordot(s.q_center, lp, axes=1)
 
     def coefficient(sl: slice) -> np.ndarray:
         return s.psi_scale * (th[sl][:4] + 1j * th[sl][4:]).reshape(2, 2)
@@ -482,6 +539,7 @@ def model_from_problem(problem: FitProblem, result: ObjectiveResult, **meta: obj
             **meta,
         },
         stiffness_factor=factor,
+        Lp=lp,
     )
 
 

@@ -64,6 +64,7 @@ from sysid_core.tuning import (
     Goal,
     TuningResult,
     frequencies_from_w,
+    solve_criterion,
 )
 from sysid_core.validation import check_rank_condition
 from sysid_core.verification import Verification, verify
@@ -151,9 +152,17 @@ class TuningRun:
     def _design(self, bias: np.ndarray, it: int = 1) -> np.ndarray:
         exp = self.config.experiment
         step = exp.bias_step if it == 1 or exp.refine_bias_step is None else exp.refine_bias_step
-        design = design_experiments(bias, self.space.index, step, self.space.limits)
+        law = self.config.model.stiffness
+        quadratic = law == "quadratic"
+        two_sided = exp.design == "two-sided" or (exp.design is None and law != "linear")
+        design = design_experiments(
+            bias, self.space.index, step, self.space.limits, two_sided=two_sided
+        )
         check_rank_condition(
-            design[:, self.space.index], self.space.structure_potential, self.space.tuned
+            design[:, self.space.index],
+            self.space.structure_potential,
+            self.space.tuned,
+            quadratic=quadratic,
         )
         return design
 
@@ -199,6 +208,16 @@ class TuningRun:
                 self.say(f"iteration {it}: note: {w.message}")
             else:
                 warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        law = model.meta.get("stiffness_law")
+        if law is not None:
+            stat, limit = model.meta.get("law_statistic"), model.meta.get("law_threshold")
+            test = (
+                f" (test of the L_p terms {stat:.3g} {'>' if law == 'quadratic' else '<='} "
+                f"{limit:.3g})"
+                if stat is not None and limit is not None
+                else f" ({model.meta.get('law_test')})"
+            )
+            self.say(f"iteration {it}: stiffness law {law}{test}")
         model.save(folder / "model.nc")
         return ds, model
 
@@ -311,13 +330,17 @@ class TuningRun:
             )
             ds, model = self._identify(it, bias, folder, center, split)
             fit_time = time.perf_counter() - t0
+            local = model
             try:
-                result: TuningResult = self.criterion.solve(model, space)
+                result, local = solve_criterion(self.criterion, model, space)
             except UnreachableTuningError as exc:
                 result = self._best_effort(exc, model, space, it)
             new_bias = check_bias(self.device.device, result.bias)
             result.confidence = confidence_region(
-                model, result, space, applied_bias=applied_bias(self.device.device, new_bias)
+                local.linearized(result.w),
+                result,
+                space,
+                applied_bias=applied_bias(self.device.device, new_bias),
             )
             regions.append(result.confidence)
             write_json(folder / "tuning.json", result.as_dict())

@@ -36,7 +36,7 @@ import xarray as xr
 from sysid_core.conic import SYM_BASIS
 from sysid_core.data import measured_mask, squared_potentials
 from sysid_core.structures import ModelStructure
-from sysid_core.validation import validate
+from sysid_core.validation import check_rank_condition, validate
 
 __all__ = [
     "EPS_DAMPING",
@@ -68,12 +68,14 @@ class ParameterLayout:
 
     Order: ``M`` (3: m11, m12, m22), ``C~`` (3), ``D~0`` (3), ``K~_p`` (3 per electrode), then per
     polynomial degree ``l``: real parts of ``P~_l`` (4, row-major) and imaginary parts (4); then,
-    for ``l < bias_terms`` and each electrode ``p``, the 8 reals of ``P~_{l,p}``.
+    for ``l < bias_terms`` and each electrode ``p``, the 8 reals of ``P~_{l,p}``; then, with a
+    quadratic stiffness law, ``L~_p`` (3 per electrode).
     """
 
     n_electrodes: int
     order: int
     bias_terms: int = 0
+    quadratic: bool = False
 
     @property
     def n_z(self) -> int:
@@ -83,6 +85,10 @@ class ParameterLayout:
     @property
     def n(self) -> int:
         """Total number of real unknowns."""
+        return self._n_before_l + (3 * self.n_electrodes if self.quadratic else 0)
+
+    @property
+    def _n_before_l(self) -> int:
         return self.n_z + 8 * (self.order + 1) + 8 * self.bias_terms * self.n_electrodes
 
     M = slice(0, 3)
@@ -92,6 +98,12 @@ class ParameterLayout:
     def K(self, p: int) -> slice:
         """Slice of electrode ``p``'s stiffness."""
         return slice(9 + 3 * p, 12 + 3 * p)
+
+    def L(self, p: int) -> slice:
+        """Slice of electrode ``p``'s quadratic stiffness ``L~_p`` (quadratic law only)."""
+        if not self.quadratic:
+            raise IndexError("a linear stiffness law has no L_p")
+        return slice(self._n_before_l + 3 * p, self._n_before_l + 3 * p + 3)
 
     def poly(self, degree: int) -> slice:
         """Slice of the 8 reals of ``P~_degree`` (4 real parts then 4 imaginary parts)."""
@@ -118,6 +130,10 @@ class ParameterLayout:
                     for part in ("re", "im")
                     for ij in ("11", "12", "21", "22")
                 ]
+        if self.quadratic:
+            names += [
+                f"L{p + 1}_{ij}" for p in range(self.n_electrodes) for ij in ("11", "12", "22")
+            ]
         return names
 
 
@@ -131,6 +147,8 @@ class Scaling:
     w_center: np.ndarray
     w_scale: np.ndarray
     psi_scale: float
+    q_center: np.ndarray | None = None
+    q_scale: np.ndarray | None = None
 
     @classmethod
     def from_data(cls, omega: np.ndarray, w: np.ndarray, psi: np.ndarray) -> Scaling:
@@ -146,7 +164,11 @@ class Scaling:
         psi_scale = float(np.median(sigma_max_2x2(psi))) * omega0**2 * eps
         if not np.isfinite(psi_scale) or psi_scale <= 0:
             psi_scale = 1.0
-        return cls(float(omega0), eps, nu_half, w_center, w_scale, psi_scale)
+        q = w**2
+        q_center = q.mean(axis=0)
+        q_spread = np.abs(q - q_center).max(axis=0)
+        q_scale = np.where(q_spread > 0, q_spread, 1.0)
+        return cls(float(omega0), eps, nu_half, w_center, w_scale, psi_scale, q_center, q_scale)
 
 
 class FitProblem:
@@ -167,7 +189,14 @@ class FitProblem:
         self.electrodes = [str(e) for e in dataset["electrode"].values]
         self.structure_potential = float(dataset.attrs["structure_potential"])
         self.bias = np.asarray(dataset["bias"].values, dtype=float)
-        self.layout = ParameterLayout(len(self.electrodes), structure.order, structure.bias_terms)
+        self.layout = ParameterLayout(
+            len(self.electrodes),
+            structure.order,
+            structure.bias_terms,
+            getattr(structure, "stiffness", "linear") == "quadratic",
+        )
+        if self.layout.quadratic:
+            check_rank_condition(self.bias, self.structure_potential, self.electrodes, True)
         mask = measured_mask(dataset)
         f = np.asarray(dataset["frequency"].values, dtype=float)
         k_idx, q_idx = np.nonzero(mask)
@@ -199,6 +228,12 @@ class FitProblem:
         s = self.scaling
         return (self.w - s.w_center) / s.w_scale
 
+    def scaled_q(self) -> np.ndarray:
+        """Scaled ``q~ = (w² - q_c) / s_q`` per experiment, ``(n_exp, n_e)`` (quadratic law)."""
+        s = self.scaling
+        assert s.q_center is not None and s.q_scale is not None
+        return (self.w**2 - s.q_center) / s.q_scale
+
     def _operator(self) -> np.ndarray:
         """``G`` with shape ``(N, 8, n)``: rows Re E11..E22 then Im E11..E22."""
         s, lay = self.scaling, self.layout
@@ -218,6 +253,9 @@ class FitProblem:
             (lay.D, np.ones(n_pts, dtype=complex)),
         ]
         coef += [(lay.K(p), wt[:, p].astype(complex)) for p in range(lay.n_electrodes)]
+        if lay.quadratic:
+            qt = self.scaled_q()[self.experiment]
+            coef += [(lay.L(p), qt[:, p].astype(complex)) for p in range(lay.n_electrodes)]
         for sl, c in coef:
             for a in range(3):
                 g[:, :, :, sl.start + a] = -c[:, None, None] * prod[:, a]

@@ -55,9 +55,12 @@ def structural_constraints(
     ]
     blocks += [([(lay.K(p), SVEC_SYM)], np.zeros(3)) for p in range(lay.n_electrodes)]
     eps = problem.scaling.eps
-    for wk in problem.scaled_w():
+    qs = problem.scaled_q() if lay.quadratic else None
+    for k, wk in enumerate(problem.scaled_w()):
         terms = [(lay.M, -SVEC_SYM), (lay.D, -eps * SVEC_SYM)]
         terms += [(lay.K(p), -eps * wk[p] * SVEC_SYM) for p in range(lay.n_electrodes)]
+        if qs is not None:
+            terms += [(lay.L(p), -eps * qs[k, p] * SVEC_SYM) for p in range(lay.n_electrodes)]
         blocks.append((terms, -EPS_STIFFNESS * eye_svec))
     a = np.zeros((3 * len(blocks), n_x))
     b = np.zeros(3 * len(blocks))

@@ -31,7 +31,7 @@ from sysid_core.objective import Progress
 from sysid_core.pipeline import TuningRun
 from sysid_core.registry import Registry, get_registry
 from sysid_core.run_summary import RunSummary
-from sysid_core.tuning import BiasSpace, TuningResult
+from sysid_core.tuning import BiasSpace, TuningResult, solve_criterion
 
 __all__ = ["predict_bias", "tune"]
 
@@ -156,6 +156,6 @@ def predict_bias(
         limits=(float(bias_limits[0]), float(bias_limits[1])),
         structure_potential=model.structure_potential,
     )
-    result = chosen.solve(model, space)
-    result.confidence = confidence_region(model, result, space)
+    result, local = solve_criterion(chosen, model, space)
+    result.confidence = confidence_region(local, result, space)
     return result

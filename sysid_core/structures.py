@@ -41,6 +41,13 @@ class ModelStructure:
         :math:`F(s)` in the data makes :math:`\\psi Z = \\tilde R + F Z`, and :math:`F Z` holds
         :math:`F K_p w_p`: terms that the bias-independent polynomial cannot absorb and that
         then bias the fitted :math:`K_p`. The relaxation keeps the fit linear in the unknowns.
+    stiffness : {"linear", "quadratic"}
+        The stiffness law in the squared potentials: ``"linear"`` (the paper's
+        :math:`K_0 + \\sum_p K_p w_p`) or ``"quadratic"``, which adds :math:`\\sum_p L_p w_p^2`
+        (a real electrode's gap shrinks with its bias, so its stiffness is not exactly
+        proportional to :math:`v^2`). Still linear in the unknowns; it needs each electrode at
+        two biases besides the centre (a two-sided design). ``"auto"``: the fit decides (the
+        quadratic law if the data show its terms, see :func:`sysid_core.fit.fit`).
     """
 
     #: Name used in configuration files and on the command line.
@@ -51,11 +58,15 @@ class ModelStructure:
     max_order: ClassVar[int] = 6
     #: Lowest polynomial degrees that depend on the squared potentials (see ``bias_terms``).
     bias_terms: int = 0
+    #: The stiffness law in ``w``: ``"linear"`` or ``"quadratic"`` (see ``stiffness``).
+    stiffness: str = "linear"
+    #: The stiffness laws a structure can take.
+    STIFFNESS_LAWS: ClassVar[tuple[str, ...]] = ("linear", "quadratic", "auto")
     #: Where the extra dynamics sit: ``"output"`` (E = P - psi Z, response P Z^-1) or
     #: ``"input"`` (E = P - Z psi, response Z^-1 P).
     side: ClassVar[Side]
 
-    def __init__(self, order: int = 1, bias_terms: int = 0) -> None:
+    def __init__(self, order: int = 1, bias_terms: int = 0, stiffness: str = "linear") -> None:
         if isinstance(order, bool) or not isinstance(order, (int, np.integer)):
             raise ConfigError(f"model order must be an integer, got {order!r}")
         if not 0 <= int(order) <= self.max_order:
@@ -71,6 +82,11 @@ class ModelStructure:
                 f"{self.order + 1}"
             )
         self.bias_terms = int(bias_terms)
+        if stiffness not in self.STIFFNESS_LAWS:
+            raise ConfigError(
+                f"stiffness = {stiffness!r}: use one of {', '.join(self.STIFFNESS_LAWS)}"
+            )
+        self.stiffness = str(stiffness)
 
     def product(self, psi: np.ndarray, z: np.ndarray) -> np.ndarray:
         """The bilinear term of the equation error: ``psi @ z`` (output) or ``z @ psi`` (input).
@@ -88,4 +104,5 @@ class ModelStructure:
 
     def __repr__(self) -> str:
         extra = f", bias_terms={self.bias_terms}" if self.bias_terms else ""
+        extra += f", stiffness={self.stiffness!r}" if self.stiffness != "linear" else ""
         return f"{type(self).__name__}(order={self.order}{extra})"

@@ -28,23 +28,47 @@ MAX_WINDOW_POINTS = 401
 
 
 def design_experiments(
-    start: np.ndarray, tuned_index: Sequence[int], step: float, limits: tuple[float, float]
+    start: np.ndarray,
+    tuned_index: Sequence[int],
+    step: float,
+    limits: tuple[float, float],
+    two_sided: bool = False,
 ) -> np.ndarray:
-    """Eq. (18): the start bias and one electrode stepped at a time (down if up would leave)."""
+    """Eq. (18): the start bias and one electrode stepped at a time (down if up would leave).
+
+    ``two_sided``: each electrode stepped up and down in turn (``2 n + 1`` experiments), what
+    the quadratic stiffness law needs; where one side would leave the limits, the electrode
+    takes a second step on the other side (``+step, +2 step``) instead.
+    """
     low, high = limits
     design = [np.array(start, dtype=float)]
     for p in tuned_index:
-        b = np.array(start, dtype=float)
-        if b[p] + step <= high:
-            b[p] += step
-        elif b[p] - step >= low:
-            b[p] -= step
+        base = float(start[p])
+        if two_sided:
+            if base - step >= low and base + step <= high:
+                offsets = [step, -step]
+            elif base + 2 * step <= high:
+                offsets = [step, 2 * step]
+            elif base - 2 * step >= low:
+                offsets = [-step, -2 * step]
+            else:
+                offsets = []
+        elif base + step <= high:
+            offsets = [step]
+        elif base - step >= low:
+            offsets = [-step]
         else:
+            offsets = []
+        if not offsets:
             raise ConfigError(
                 f"[experiment] bias_step = {step} V does not fit inside the bias limits "
-                f"{limits} V; use a smaller step"
+                f"{limits} V{' (two-sided: twice the step)' if two_sided else ''}; use a "
+                "smaller step"
             )
-        design.append(b)
+        for off in offsets:
+            b = np.array(start, dtype=float)
+            b[p] += off
+            design.append(b)
     return np.array(design)
 
 

@@ -341,3 +341,65 @@ class TuningCriterion(ABC):
         UnreachableTuningError
             When the goal cannot be met inside the limits; carries the best reachable bias.
         """
+
+
+#: Most linearizations of a quadratic-law model before :func:`solve_criterion` gives up.
+MAX_LINEARIZATIONS = 50
+#: The answer has settled when no bias moves more than this between linearizations (volts).
+SETTLED_V = 1e-7
+#: ... or when the moves stop shrinking below this (a criterion's own resolution; volts).
+STALLED_V = 1e-3
+
+
+def solve_criterion(
+    criterion: TuningCriterion, model: FittedModel, space: BiasSpace
+) -> tuple[TuningResult, FittedModel]:
+    """``criterion``'s answer for ``model``, and the linear model it was computed from.
+
+    Criteria work with a stiffness linear in ``w``. A model of the quadratic law
+    (``model.Lp``) is linearized at the start bias, solved, linearized again at the answer and
+    solved again, until no bias moves more than :data:`SETTLED_V` (or the moves stop
+    shrinking below :data:`STALLED_V`, the resolution of a bisecting criterion; the quadratic
+    terms are small corrections, so a few rounds suffice): the answer then holds for
+    the quadratic model itself, whose tangent at the answer is the linear model returned (for
+    the confidence region). A linear model is solved once and returned as it is.
+
+    From the fifth round each new point is damped (halfway, from the 21st a fifth of the way):
+    the answer of ``min-max-bias`` can jump between distant points of the degenerate set. If
+    the rounds still do not settle within :data:`MAX_LINEARIZATIONS` (4 of 100 random gyros'
+    min-max runs before the damping), the answer of the tangent at the identification bias is
+    used; ``result.info["linearizations"]`` says so (else it holds the number of rounds).
+
+    Raises
+    ------
+    UnreachableTuningError
+        As the criterion does, for the model linearized where it stopped.
+    """
+    if model.Lp is None:
+        return criterion.solve(model, space), model
+    w0 = squared_potentials(space.structure_potential, space.start_bias[space.index])
+    bias0 = np.asarray(space.start_bias, dtype=float)
+    first: tuple[TuningResult, FittedModel] | None = None
+    moved, before = float("inf"), float("inf")
+    for round_ in range(MAX_LINEARIZATIONS):
+        local = model.linearized(w0)
+        result = criterion.solve(local, space)
+        first = first or (result, local)
+        moved = float(np.max(np.abs(np.asarray(result.bias) - bias0)))
+        # settled, or stalled at the criterion's own resolution (min-max bisects to 1e-4 V)
+        if moved <= SETTLED_V or (round_ >= 3 and moved <= STALLED_V and moved > 0.5 * before):
+            result.info["linearizations"] = round_ + 1
+            return result, local
+        before = moved
+        # damped from the fifth round: a criterion whose answer jumps (min-max-bias moves
+        # along the degenerate set) would otherwise go back and forth
+        step = 1.0 if round_ < 4 else 0.5 if round_ < 20 else 0.2
+        w0 = w0 + step * (np.asarray(result.w, dtype=float) - w0)
+        bias0 = np.asarray(result.bias, dtype=float)
+    assert first is not None
+    result, local = first
+    result.info["linearizations"] = (
+        f"did not settle in {MAX_LINEARIZATIONS} rounds (the bias still moved by {moved:.3g} V): "
+        "the answer of the tangent at the identification bias is used"
+    )
+    return result, local

@@ -34,8 +34,13 @@ def check_rank_condition(
     bias: np.ndarray | Sequence[Sequence[float]],
     structure_potential: float,
     electrodes: Sequence[str] | None = None,
+    quadratic: bool = False,
 ) -> None:
     """Check the rank condition (6): ``rank [1, v_k1^2, ..., v_kne^2] = n_e + 1``.
+
+    With ``quadratic`` (the quadratic stiffness law, which adds ``L_p w_p²``) the regressors
+    are ``[1, w, w²]`` and the rank must be ``2 n_e + 1``: each electrode at two biases
+    besides the centre (a two-sided design).
 
     Parameters
     ----------
@@ -45,6 +50,8 @@ def check_rank_condition(
         ``v_gyro`` (volts).
     electrodes : sequence of str, optional
         Names, for the error message.
+    quadratic : bool
+        Check the condition of the quadratic stiffness law.
 
     Raises
     ------
@@ -57,15 +64,20 @@ def check_rank_condition(
     bias = np.atleast_2d(np.asarray(bias, dtype=float))
     n_exp, n_e = bias.shape
     names = list(electrodes) if electrodes is not None else [f"#{p}" for p in range(n_e)]
-    if n_exp < n_e + 1:
+    need = 2 * n_e + 1 if quadratic else n_e + 1
+    if n_exp < need:
+        law = f" and L1..L{n_e} (quadratic stiffness law)" if quadratic else ""
         raise TooFewExperimentsError(
             f"{n_exp} experiment(s) for {n_e} bias electrode(s): the stiffness matrices "
-            f"K0, K1..K{n_e} need at least {n_e + 1} experiments satisfying the rank condition (6)"
+            f"K0, K1..K{n_e}{law} need at least {need} experiments satisfying the rank "
+            "condition (6)"
         )
     w = squared_potentials(structure_potential, bias)
-    phi = np.hstack([np.ones((n_exp, 1)), w])
+    phi = np.hstack([np.ones((n_exp, 1)), w] + ([w**2] if quadratic else []))
+    phi = phi - np.r_[0.0, phi[0, 1:]]  # centred on the first experiment: better conditioned
+    phi[:, 0] = 1.0
     phi = phi / np.maximum(np.abs(phi).max(axis=0), 1e-300)
-    if np.linalg.matrix_rank(phi, tol=_RANK_TOL * np.sqrt(n_exp)) == n_e + 1:
+    if np.linalg.matrix_rank(phi, tol=_RANK_TOL * np.sqrt(n_exp)) == need:
         return
     # Greedy: which experiments do not add to the span of the ones before them?
     basis: list[np.ndarray] = []
@@ -87,10 +99,14 @@ def check_rank_condition(
     detail = "; ".join(redundant)
     if constant:
         detail += f"; the potential of electrode(s) {', '.join(constant)} never changes"
+    fix = (
+        'step each electrode up and down from a base bias ([experiment] design = "two-sided")'
+        if quadratic
+        else "step one electrode at a time from a base bias (eq. 18)"
+    )
     raise RankConditionError(
-        f"the experiment design violates the rank condition (6): rank {len(kept)} < {n_e + 1}. "
-        f"{detail}. Fix: vary each electrode's squared potential independently, e.g. step one "
-        f"electrode at a time from a base bias (eq. 18)."
+        f"the experiment design violates the rank condition (6): rank {len(kept)} < {need}. "
+        f"{detail}. Fix: vary each electrode's squared potential independently, e.g. {fix}."
     )
 
 

@@ -389,6 +389,7 @@ name = "{device}"
 [model]
 structure = "act"
 order = 1
+stiffness = "linear"
 
 [solver]
 name = "clarabel"

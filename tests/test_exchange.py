@@ -26,6 +26,7 @@ from sysid_core.pipeline import TuningRun
 ROOT = Path(__file__).resolve().parents[1]
 OPERATOR = ROOT / "examples" / "exchange_operator.py"
 TABLES: dict[str, Any] = {
+    "model": {"stiffness": "linear"},  # one-sided design: 3 requests per iteration
     "tuning": {
         "criterion": "degenerate",
         "electrodes": ["B1", "B2"],

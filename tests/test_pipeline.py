@@ -53,7 +53,10 @@ TWO_ELECTRODES = {
     "start_bias": [0.0, 0.0, 0.0],
     "max_iterations": 2,
 }
-PAPER_MODEL = {"structure": "act", "order": 1, "bias_terms": 0}
+PAPER_MODEL = {"structure": "act", "order": 1, "bias_terms": 0, "stiffness": "linear"}
+#: The pipeline's mechanics (experiment counts, resume, limits) are tested with the one-sided
+#: design of the linear law (n + 1 experiments); the default law's design: test_quadratic_law.
+LINEAR_LAW = {"stiffness": "linear"}
 MEASUREMENT = re.compile(r"(exp\d+|verify(-\d+)?)\.nc")
 
 
@@ -126,6 +129,7 @@ def config(
         "device": device or {"name": "cloverleaf"},
         "tuning": tuning if tuning is not None else dict(TWO_ELECTRODES),
         "experiment": {**REDUCED, **(experiment or {})},
+        "model": dict(LINEAR_LAW),
         **tables,
     }
     return parse_config(data)
@@ -575,7 +579,8 @@ def test_cli_json_line_and_plots(tmp_path: Path, capsys: pytest.CaptureFixture[s
     } <= set(result)
     assert result["device"] == "cloverleaf" and len(result["bias"]) == 3
     assert result["converged"] is True and result["iterations"] == 1
-    assert result["experiments"] == 4 and result["split_hz"] < 0.5
+    # the default stiffness law's two-sided design: 5 experiments, then 1 verification sweep
+    assert result["experiments"] == 6 and result["split_hz"] < 0.5
     assert 4425 < result["frequency_hz"] < 4435
     assert json.loads((out / "summary.json").read_text())["bias"] == result["bias"]
     for png in ("bias_path.png", "iter01/fit.png", "iter01/verify.png"):

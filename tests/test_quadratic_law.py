@@ -1,0 +1,174 @@
+"""The quadratic stiffness law (``[model] stiffness = "quadratic"``): K(w) = K0 + Σ K_p w_p +
+Σ L_p w_p², fitted from a two-sided design, tuned by repeated linearization.
+
+Truths: a model of the class itself (exact recovery, exact tuning) and random gyros whose bias
+law is not v² (the law's use: the second iteration under 2 mHz).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from sysid_random_gyro import RandomGyro
+
+from sysid_core import errors, fit, load_model, tune
+from sysid_core.confidence import confidence_region
+from sysid_core.model import FittedModel
+from sysid_core.registry import get_registry
+from sysid_core.sweeps import design_experiments
+from sysid_core.tuning import BiasSpace, frequencies_from_w, solve_criterion
+from sysid_core.validation import check_rank_condition
+from tests.truths import PAPER_BIASES, PAPER_FREQS, V_GYRO, cloverleaf_truth, simulate
+
+#: A random gyro (6 electrodes, 19.3 kHz, native split 11 Hz) that the linear law leaves at
+#: 165 mHz after two iterations (runs/study-random-degenerate) and the quadratic under 2 mHz.
+SEED = 9
+TWO_SIDED = design_experiments(np.zeros(2), [0, 1], 1.0, (-10.0, 10.0), two_sided=True)
+
+
+@pytest.fixture(scope="module")
+def truth_model() -> FittedModel:
+    """A model of the class: the cloverleaf's fitted linear model plus L_p that change each
+    electrode's stiffness by about 4 % per 10 V (a gap that closes with the bias)."""
+    base = fit(simulate(cloverleaf_truth(), PAPER_BIASES, PAPER_FREQS), bias_terms=0, order=1)
+    w_c = (V_GYRO - 0.0) ** 2
+    return dataclasses.replace(base, Lp=-0.04 * base.Kp / (w_c * 0.3), stiffness_factor=None)
+
+
+class _Responses:
+    """``simulate``'s truth protocol for a FittedModel."""
+
+    def __init__(self, model: FittedModel) -> None:
+        self.model = model
+        self.electrodes = model.electrodes
+        self.structure_potential = model.structure_potential
+
+    def response(self, bias: np.ndarray, freqs: np.ndarray) -> np.ndarray:
+        return self.model.response(freqs, bias)
+
+
+def _space(n: int = 2) -> BiasSpace:
+    names = [f"B{p + 1}" for p in range(n)]
+    return BiasSpace(names, names, np.zeros(n), (-10.0, 10.0), V_GYRO)
+
+
+def _degenerate():
+    reg = get_registry()
+    return reg.criterion("degenerate", solver=reg.solver("clarabel"))
+
+
+def test_two_sided_design_and_its_rank_condition() -> None:
+    np.testing.assert_allclose(TWO_SIDED, [[0, 0], [1, 0], [-1, 0], [0, 1], [0, -1]])
+    check_rank_condition(TWO_SIDED, V_GYRO, quadratic=True)
+    with pytest.raises(errors.TooFewExperimentsError, match=r"L1\.\.L2"):
+        check_rank_condition(PAPER_BIASES, V_GYRO, quadratic=True)
+    one_level = np.array([[0, 0], [1, 0], [1, 0.0], [0, 1], [0, 1]])
+    with pytest.raises(errors.RankConditionError, match="two-sided"):
+        check_rank_condition(one_level, V_GYRO, quadratic=True)
+    # at a limit the electrode takes two steps on the side that fits
+    edge = design_experiments(np.array([9.5, 0.0]), [0], 1.0, (-10.0, 10.0), two_sided=True)
+    np.testing.assert_allclose(edge[:, 0], [9.5, 8.5, 7.5])
+    with pytest.raises(errors.ConfigError, match="two-sided"):
+        design_experiments(np.zeros(1), [0], 11.0, (-10.0, 10.0), two_sided=True)
+
+
+def test_fit_recovers_the_quadratic_law_and_tunes_it_exactly(truth_model) -> None:
+    ds = simulate(_Responses(truth_model), TWO_SIDED, PAPER_FREQS)
+    model = fit(ds, order=1, bias_terms=0, stiffness="quadratic")
+    assert model.Lp is not None and model.structure.stiffness == "quadratic"
+    assert model.meta["n_parameters"] == 31 + 6
+    np.testing.assert_allclose(
+        model.Lp, truth_model.Lp, rtol=1e-3, atol=1e-6 * np.abs(truth_model.Lp).max()
+    )
+    np.testing.assert_allclose(
+        model.Kp, truth_model.Kp, rtol=1e-3, atol=1e-6 * np.abs(truth_model.Kp).max()
+    )
+    exact, _ = solve_criterion(_degenerate(), truth_model, _space())
+    f = frequencies_from_w(truth_model, exact.w)
+    assert f[1] - f[0] < 1e-7  # the linearizations settle on the quadratic model's answer
+    answer, local = solve_criterion(_degenerate(), model, _space())
+    np.testing.assert_allclose(answer.bias, exact.bias, atol=1e-6)
+    assert local.Lp is None and np.allclose(
+        local.stiffness_w(answer.w), model.stiffness_w(answer.w)
+    )
+    # the linear law on the same data misses the answer by far more
+    linear = fit(ds, order=1, bias_terms=0)
+    wrong = _degenerate().solve(linear, _space())
+    assert np.max(np.abs(wrong.bias - exact.bias)) > 100 * np.max(np.abs(answer.bias - exact.bias))
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.floats(50.0, 400.0), min_size=2, max_size=2), st.floats(-1.0, 1.0))
+def test_linearization_is_the_tangent(truth_model, w0, dw) -> None:
+    """Value and slope of the linearized stiffness agree with the quadratic one at ``w0``."""
+    w0 = np.array(w0)
+    local = truth_model.linearized(w0)
+    np.testing.assert_allclose(local.stiffness_w(w0), truth_model.stiffness_w(w0), rtol=1e-12)
+    h = np.array([dw, -0.5 * dw])
+    slope_true = (truth_model.stiffness_w(w0 + h) - truth_model.stiffness_w(w0 - h)) / 2
+    np.testing.assert_allclose(
+        local.stiffness_w(w0 + h) - local.stiffness_w(w0), slope_true, rtol=1e-6, atol=1e-9
+    )
+
+
+def test_quadratic_model_round_trip_and_region(tmp_path: Path, truth_model) -> None:
+    ds = simulate(_Responses(truth_model), TWO_SIDED, PAPER_FREQS, noise_peak=1e-4, seed=2)
+    model = fit(ds, order=1, bias_terms=0, stiffness="quadratic")
+    assert model.stiffness_factor is not None and model.stiffness_factor.shape[0] == 6 + 12
+    again = load_model(model.save(tmp_path / "q.model.nc"))
+    assert again.structure.stiffness == "quadratic"
+    np.testing.assert_array_equal(again.Lp, model.Lp)
+    answer, local = solve_criterion(_degenerate(), again, _space())
+    region = confidence_region(local, answer, _space())
+    assert region is not None
+    exact, _ = solve_criterion(_degenerate(), truth_model, _space())
+    lo, hi = region.bias_ci[:, 0], region.bias_ci[:, 1]
+    assert np.all(lo <= exact.bias) and np.all(exact.bias <= hi)
+    assert np.max(hi - lo) < 0.05
+
+
+def test_random_gyro_second_iteration_under_2_mhz(tmp_path: Path) -> None:
+    """The bias law is not v²: two iterations of the quadratic law tune it under 2 mHz."""
+    gyro = RandomGyro(seed=SEED)
+    config = {
+        "device": {"name": "random-gyro", "seed": SEED},
+        "model": {"structure": gyro.structure, "stiffness": "quadratic"},
+        "tuning": {
+            "criterion": "degenerate",
+            "electrodes": ["B1", "B2"],
+            "start_bias": [0.0] * len(gyro.electrodes),
+            "max_iterations": 2,
+            "acceptance_hz": 1e-12,
+        },
+        "experiment": {"resolution_hz": 1.0, "verify_resolution_hz": 0.02},
+    }
+    result = tune(config, tmp_path / "run", plots=False)
+    assert len(result.history) == 2
+    assert len(result.history[0].experiments) == 5  # two-sided by default with this law
+    assert gyro.true_split_hz(result.bias) < 0.002
+
+
+def test_auto_keeps_the_law_the_data_show(truth_model) -> None:
+    """``stiffness = "auto"``: a v² truth (the cloverleaf's) stays linear (the 99 % Wald test
+    rejects a true linear law 1 time in 100: at most 1 of 20 seeds here), the quadratic truth
+    is found every time; a one-sided design cannot show L_p and stays linear."""
+    linear_truth = cloverleaf_truth()
+    kept = []
+    for seed in range(20):
+        ds = simulate(linear_truth, TWO_SIDED, PAPER_FREQS, noise_peak=1e-4, seed=seed)
+        kept.append(fit(ds, stiffness="auto").meta["stiffness_law"])
+    assert kept.count("quadratic") <= 1
+    for seed in range(5):
+        ds = simulate(_Responses(truth_model), TWO_SIDED, PAPER_FREQS, noise_peak=1e-4, seed=seed)
+        model = fit(ds, order=1, bias_terms=0, stiffness="auto")
+        assert model.meta["stiffness_law"] == "quadratic" and model.Lp is not None
+        assert model.meta["law_statistic"] > model.meta["law_threshold"]
+    one_sided = simulate(linear_truth, PAPER_BIASES, PAPER_FREQS, noise_peak=1e-4)
+    model = fit(one_sided, stiffness="auto")
+    assert model.meta["stiffness_law"] == "linear" and model.Lp is None
+    assert "does not identify" in model.meta["law_test"]
