@@ -41,6 +41,7 @@ import xarray as xr
 from sysid_core.components import build_components
 from sysid_core.confidence import confidence_region
 from sysid_core.config import PipelineConfig
+from sysid_core.dac import best_code
 from sysid_core.data import (
     concat_experiments,
     experiment_from_measurement,
@@ -280,6 +281,27 @@ class TuningRun:
             info={"unreachable": str(exc)},
         )
 
+    def _apply_best_code(self, model: FittedModel, result: TuningResult, space: BiasSpace) -> None:
+        """Move the answer to the DAC code the model predicts best (:mod:`sysid_core.dac`)."""
+        code = best_code(model, result, space, self.device)
+        if code is None or np.array_equal(code, result.bias):
+            return
+        rounded = applied_bias(self.device.device, np.asarray(result.bias, dtype=float))
+        w = (space.structure_potential - code[space.index]) ** 2
+        f = frequencies_from_w(model, w)
+        before = (
+            None
+            if rounded is None
+            else frequencies_from_w(model, (space.structure_potential - rounded[space.index]) ** 2)
+        )
+        result.info["dac_code"] = {
+            "answer": [float(b) for b in result.bias],
+            "predicted_split_hz_rounded": None if before is None else float(before[1] - before[0]),
+            "predicted_split_hz_chosen": float(f[1] - f[0]),
+        }
+        result.bias, result.w = code, w
+        result.frequencies_hz, result.split_hz = f, float(f[1] - f[0])
+
     # ------------------------------------------------------------------ the loop
     def run(self) -> RunSummary:
         """Run (or resume) the loop; returns the summary (also written to ``summary.json``).
@@ -335,6 +357,7 @@ class TuningRun:
                 result, local = solve_criterion(self.criterion, model, space)
             except UnreachableTuningError as exc:
                 result = self._best_effort(exc, model, space, it)
+            self._apply_best_code(model, result, space)
             new_bias = check_bias(self.device.device, result.bias)
             result.confidence = confidence_region(
                 local.linearized(result.w),

@@ -189,6 +189,8 @@ def bias_path_figure(
     ``regions[k - 1]``, the confidence region of iteration ``k``'s answer, adds error bars to
     its biases and its predicted split range next to the measured split.
     """
+    from matplotlib.ticker import FuncFormatter
+
     fig = _figure(1, 2, (11, 4.5))
     ax_b, ax_s = fig.axes
     b = np.asarray(biases, dtype=float)
@@ -261,9 +263,12 @@ def bias_path_figure(
                 if k > 1 and region is not shown[0]
                 else (f"predicted split at the answer, {region.level:.0%} range"),
             )
-        ax_s.set_ylim(bottom=bottom)
+        # both limits: set_ylim turns autoscaling off, and the acceptance line must stay in view
+        ax_s.set_ylim(bottom, 2 * max(v for v in values if v > 0))
     if acceptance_hz is not None:
         ax_s.axhline(acceptance_hz * 1e3, color="tab:green", ls="--", label="acceptance")
+    ax_s.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax_s.yaxis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
     ax_s.set_xlabel("iteration")
     ax_s.set_ylabel("measured split [mHz]")
     ax_s.set_xticks(it)
@@ -306,8 +311,10 @@ def plot_iteration(
     folder = Path(folder)
     units = str(ds.attrs.get("response_units", "") or "response units")
     title = (
-        f"iteration {it}: {model.structure.name} model fitted to {ds.sizes['experiment']} "
-        f"experiments, residual γ = {model.gamma:.3g} ({units})·(rad/s)²"
+        f"iteration {it}: {model.structure.name} model"
+        f"{' (' + law + ' stiffness law)' if (law := model.meta.get('stiffness_law')) else ''} "
+        f"fitted to {ds.sizes['experiment']} experiments, residual γ = {model.gamma:.3g} "
+        f"({units})·(rad/s)²"
     )
     save_figure(fit_figure(ds, model, title), folder / f"fit.{fmt}")
     save_figure(

@@ -271,7 +271,7 @@ class TuningResult:
             "predicted_frequencies_hz": [float(f) for f in self.frequencies_hz],
             "predicted_split_hz": self.split_hz,
             "value_hz": self.value,
-            **{k: v for k, v in self.info.items() if isinstance(v, (int, float, str, list))},
+            **{k: v for k, v in self.info.items() if isinstance(v, (int, float, str, list, dict))},
             **(self.confidence.as_dict() if self.confidence is not None else {}),
         }
 

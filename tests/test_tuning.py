@@ -353,3 +353,33 @@ def test_an_inaccurate_spread_solve_is_used_and_checked(truth: GyroTruth) -> Non
 
     with pytest.raises(SolverError):
         MinMaxBias(solver=_Failed()).solve(model, sp)
+
+
+@pytest.mark.parametrize("bits", [10, 12, 16])
+def test_best_dac_code_is_a_code_near_the_answer_and_predicted_best(
+    truth: GyroTruth, bits: int
+) -> None:
+    """Among the codes one step around the answer, the chosen one is a real code (the DAC
+    applies it unchanged), at most one step from the answer on each electrode, and the model
+    predicts it at least as well as plain rounding and better than any other neighbour."""
+    from sysid_core.dac import best_code, predicted_modes_hz
+
+    device = CloverleafGyro(dac_bits=bits)
+    tuned = ["B1", "B2", "B3"]
+    model, sp = exact_model(truth, tuned), space(truth, tuned)
+    answer = MinMaxBias(solver=SOLVER).solve(model, sp)
+    code = best_code(model, answer, sp, device)
+    assert code is not None
+    np.testing.assert_array_equal(device.applied_bias(code), code)
+    step = device.bias_resolution
+    assert np.all(np.abs(code - answer.bias) <= step * (1 + 1e-9))
+
+    def split(b: np.ndarray) -> float:
+        f = predicted_modes_hz(model, (sp.structure_potential - b) ** 2)[0]
+        return float(f[1] - f[0])
+
+    assert split(code) <= split(device.applied_bias(answer.bias)) + 1e-12
+    for offsets in np.ndindex(3, 3, 3):
+        other = device.applied_bias(answer.bias + step * (np.array(offsets) - 1.0))
+        assert split(code) <= split(other) + 1e-12
+    assert best_code(model, answer, sp, CloverleafGyro(dac_bits=0)) is None

@@ -162,6 +162,14 @@ class SimulatedGyro:
             )
         return values
 
+    @property
+    def bias_resolution(self) -> float | None:
+        """The DAC's step (volts per code), or ``None`` without quantisation (``dac_bits = 0``)."""
+        if self.dac_bits == 0:
+            return None
+        low, high = self.bias_limits
+        return float(high - low) / 2**self.dac_bits
+
     def applied_bias(self, bias: Sequence[float]) -> np.ndarray:
         """The bias the DAC really applies for the requested ``bias`` (volts, quantised).
 
