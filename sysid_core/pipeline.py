@@ -31,6 +31,7 @@ method, the steps' work being done in their own modules (sweeps, runfolder, fit,
 
 from __future__ import annotations
 
+import dataclasses
 import time
 import warnings
 from pathlib import Path
@@ -357,11 +358,14 @@ class TuningRun:
                 result, local = solve_criterion(self.criterion, model, space)
             except UnreachableTuningError as exc:
                 result = self._best_effort(exc, model, space, it)
+            answer = dataclasses.replace(result)  # the criterion's, before the DAC code
             self._apply_best_code(model, result, space)
             new_bias = check_bias(self.device.device, result.bias)
+            # the region is about the answer (where the truth is); its split range is at the
+            # voltages that will really be applied
             result.confidence = confidence_region(
-                local.linearized(result.w),
-                result,
+                local.linearized(answer.w),
+                answer,
                 space,
                 applied_bias=applied_bias(self.device.device, new_bias),
             )
