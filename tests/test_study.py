@@ -39,17 +39,17 @@ iterations = 2
 """
 
 
-def _assert_close(a, b):
+def _assert_close(a, b, abs_tol=1e-12):
     if isinstance(a, dict):
         assert a.keys() == b.keys()
         for k in a:
-            _assert_close(a[k], b[k])
+            _assert_close(a[k], b[k], abs_tol)
     elif isinstance(a, list):
         assert len(a) == len(b)
         for x, y in zip(a, b, strict=True):
-            _assert_close(x, y)
+            _assert_close(x, y, abs_tol)
     elif isinstance(a, float):
-        assert a == pytest.approx(b, rel=1e-9, abs=1e-12)
+        assert a == pytest.approx(b, rel=1e-9, abs=abs_tol)
     else:
         assert a == b
 
@@ -65,8 +65,9 @@ def test_dask_and_local_executors_agree(tmp_path):
     local = run_study(cfg, tmp_path / "local", executor="local", plots=False)
     dask = run_study(cfg, tmp_path / "dask", executor="dask", workers=2, plots=False)
     assert local["runs"] == dask["runs"] == 4
-    # Identical up to floating-point summation order (BLAS threads differ between processes).
-    _assert_close(local["summary"], dask["summary"])
+    # Identical up to floating-point summation order (BLAS threads differ between processes);
+    # the summary rounds bias statistics to 1e-6 V, so a last digit may differ there.
+    _assert_close(local["summary"], dask["summary"], abs_tol=1.01e-6)
     for key in ("least-squares-act-000", "least-squares-act-003"):
         a = json.loads((tmp_path / "local" / "results" / f"{key}.json").read_text())
         b = json.loads((tmp_path / "dask" / "results" / f"{key}.json").read_text())
