@@ -84,7 +84,7 @@ class ModelStructure:
         self.bias_terms = int(bias_terms)
         if stiffness not in self.STIFFNESS_LAWS:
             raise ConfigError(
-                f"stiffness = {stiffness!r}: use one of {', '.join(self.STIFFNESS_LAWS)}"
+                f"[model] stiffness = {stiffness!r}: use one of {', '.join(self.STIFFNESS_LAWS)}"
             )
         self.stiffness = str(stiffness)
 

@@ -71,6 +71,12 @@ def check_rank_condition(
             f"{n_exp} experiment(s) for {n_e} bias electrode(s): the stiffness matrices "
             f"K0, K1..K{n_e}{law} need at least {need} experiments satisfying the rank "
             "condition (6)"
+            + (
+                "; each electrode stepped up and down gives them ([experiment] design = "
+                '"two-sided", the default of this law)'
+                if quadratic
+                else ""
+            )
         )
     w = squared_potentials(structure_potential, bias)
     phi = np.hstack([np.ones((n_exp, 1)), w] + ([w**2] if quadratic else []))
