@@ -155,6 +155,28 @@ def device_structure(device: Device, seed: int) -> str:
     return name
 
 
+def _spec(
+    cfg: StudyConfig,
+    out: Path,
+    objective: str,
+    structure: str,
+    resolved: str,
+    i: int,
+    start: list[float],
+    seed: int,
+) -> RunSpec:
+    """Run ``i`` of a study: ``structure`` as named in ``[study]``, ``resolved`` as fitted."""
+    data = cfg.pipeline.model_dump(mode="json")
+    data["model"]["structure"] = resolved
+    data["objective"]["name"] = objective
+    data["tuning"]["start_bias"] = start
+    data["tuning"]["max_iterations"] = cfg.study.iterations
+    data["tuning"]["acceptance_hz"] = 1e-12  # run every iteration
+    data["device"]["seed"] = seed
+    key = f"{objective}-{structure}-{i:03d}"
+    return RunSpec(key, i, objective, structure, tuple(start), seed, data, str(out / "runs" / key))
+
+
 def make_population_specs(
     cfg: StudyConfig, out: Path, devices: list[tuple[int, Device]]
 ) -> list[RunSpec]:
@@ -163,30 +185,11 @@ def make_population_specs(
     for objective in cfg.objectives:
         for structure in cfg.study.structures:
             for i, (seed, device) in enumerate(devices):
-                data = cfg.pipeline.model_dump(mode="json")
                 resolved = (
                     device_structure(device, seed) if structure == AUTO_STRUCTURE else structure
                 )
-                data["model"]["structure"] = resolved
-                data["objective"]["name"] = objective
                 start = [0.0] * len(device.electrodes)
-                data["tuning"]["start_bias"] = start
-                data["tuning"]["max_iterations"] = cfg.study.iterations
-                data["tuning"]["acceptance_hz"] = 1e-12  # run every iteration
-                data["device"]["seed"] = seed
-                key = f"{objective}-{structure}-{i:03d}"
-                specs.append(
-                    RunSpec(
-                        key,
-                        i,
-                        objective,
-                        structure,
-                        tuple(start),
-                        seed,
-                        data,
-                        str(out / "runs" / key),
-                    )
-                )
+                specs.append(_spec(cfg, out, objective, structure, resolved, i, start, seed))
     return specs
 
 
@@ -199,27 +202,8 @@ def make_specs(cfg: StudyConfig, out: Path, electrodes: list[str]) -> list[RunSp
     for objective in cfg.objectives:
         for structure in cfg.study.structures:
             for i, start in enumerate(starts):
-                data = cfg.pipeline.model_dump(mode="json")
-                data["model"]["structure"] = structure
-                data["objective"]["name"] = objective
-                data["tuning"]["start_bias"] = start
-                data["tuning"]["max_iterations"] = cfg.study.iterations
-                data["tuning"]["acceptance_hz"] = 1e-12  # run every iteration
                 seed = cfg.study.seed * 100003 + i
-                data["device"]["seed"] = seed
-                key = f"{objective}-{structure}-{i:03d}"
-                specs.append(
-                    RunSpec(
-                        key,
-                        i,
-                        objective,
-                        structure,
-                        tuple(start),
-                        seed,
-                        data,
-                        str(out / "runs" / key),
-                    )
-                )
+                specs.append(_spec(cfg, out, objective, structure, structure, i, start, seed))
     return specs
 
 
