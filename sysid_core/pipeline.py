@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from sysid_core.bench import dwell, points_per_frequency
 from sysid_core.components import build_components
 from sysid_core.confidence import confidence_region
 from sysid_core.config import PipelineConfig
@@ -148,6 +149,7 @@ class TuningRun:
         self.folder = RunFolder(self.out, config.digest())
         self.folder.check(resume)
         self.measurements = 0
+        self.points = 0
         self.notes: list[str] = []
 
     # ------------------------------------------------------------------ measuring
@@ -185,6 +187,7 @@ class TuningRun:
         if was_read:
             self.say(f"read {path.relative_to(self.out)} (measured earlier)")
         self.measurements += 1
+        self.points += int(freqs.size) * points_per_frequency(self.device.device)
         return ds
 
     def _fit(self, ds: xr.Dataset) -> FittedModel:
@@ -423,6 +426,13 @@ class TuningRun:
             summary.bias = bias.tolist()
             summary.split_hz, summary.frequency_hz = ver.split_hz, ver.frequency_hz
             summary.iterations, summary.experiments = it, self.measurements
+            summary.points = self.points
+            summary.dwell_s, summary.dwell_source = dwell(
+                self.device.device, cfg_dwell=self.config.experiment.dwell_s, model=model
+            )
+            summary.bench_time_s = (
+                None if summary.dwell_s is None else self.points * summary.dwell_s
+            )
             summary.converged, summary.verified = converged, ver.verified
             summary.goals = [g.as_dict() for g in goals]
             summary.confidence = None if result.confidence is None else result.confidence.as_dict()

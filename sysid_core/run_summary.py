@@ -72,6 +72,10 @@ class RunSummary:
     notes: list[str] = field(default_factory=list)
     out: str = ""
     confidence: dict[str, Any] | None = None
+    points: int = 0
+    bench_time_s: float | None = None
+    dwell_s: float | None = None
+    dwell_source: str | None = None
 
     @property
     def paths(self) -> dict[str, Any]:
@@ -97,6 +101,10 @@ class RunSummary:
             "frequency_hz": self.frequency_hz,
             "iterations": self.iterations,
             "experiments": self.experiments,
+            "points": self.points,
+            "bench_time_s": self.bench_time_s,
+            "dwell_s": self.dwell_s,
+            "dwell_source": self.dwell_source,
             "converged": self.converged,
             "verified": self.verified,
             "status": self.status,

@@ -18,6 +18,8 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from sysid_core.io import atomic_write, write_json
 from sysid_core.study_exec import BatchProgress, execute
 from sysid_core.study_plan import StudyConfig, StudyPlan, load_study_config, plan_study
@@ -28,6 +30,18 @@ if TYPE_CHECKING:
     from distributed import Client
 
 __all__ = ["failure_message", "load_study_config", "plan_study", "run_study"]
+
+
+def _bench(results: list[dict[str, Any]]) -> dict[str, float | None]:
+    """Median frequency points and bench time per successful run (``sysid_core.bench``)."""
+    points = [r["points"] for r in results if not r["error"] and r.get("points") is not None]
+    times = [
+        r["bench_time_s"] for r in results if not r["error"] and r.get("bench_time_s") is not None
+    ]
+    return {
+        "median_points": float(np.median(points)) if points else None,
+        "median_bench_time_s": float(np.median(times)) if times else None,
+    }
 
 
 def run_study(
@@ -92,6 +106,7 @@ def run_study(
         "failed": len(failures),
         "failures": failures,
         "elapsed_s": elapsed,
+        **_bench(results),
         "tuned": tuned,
         "population": population,
         "out": str(out),

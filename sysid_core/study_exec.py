@@ -135,6 +135,8 @@ def run_one(spec: RunSpec) -> dict[str, Any]:
         return {
             **_base(spec),
             "iterations": iters,
+            "points": summary.points,
+            "bench_time_s": summary.bench_time_s,
             "error": None,
             "time_s": time.perf_counter() - t0,
         }

@@ -1,0 +1,72 @@
+"""Bench time: every run counts the frequency points it measured and turns them into seconds
+with a per-point dwell (the device's figure, the configuration's, or 5 Q/ω from the data)."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from sysid_cloverleaf import CloverleafGyro
+
+from sysid_core.config import parse_config
+from sysid_core.data import load_dataset
+from sysid_core.modal import modal_analysis
+from sysid_core.pipeline import TuningRun
+
+MEASUREMENT = re.compile(r"(exp\d+|verify(-\d+)?)\.nc")
+
+
+def _config(**experiment: float) -> dict:
+    return {
+        "device": {"name": "cloverleaf", "seed": 1},
+        "tuning": {
+            "criterion": "degenerate",
+            "electrodes": ["B1", "B2"],
+            "start_bias": [0.0, 0.0, 0.0],
+            "max_iterations": 2,
+            "acceptance_hz": 1e-12,
+        },
+        "experiment": {"resolution_hz": 1.0, "verify_resolution_hz": 0.02, **experiment},
+    }
+
+
+def _points_on_disk(out: Path) -> int:
+    files = [p for p in out.rglob("*.nc") if MEASUREMENT.fullmatch(p.name)]
+    return sum(int(load_dataset(p).sizes["frequency"]) for p in files)
+
+
+class TimedCloverleaf(CloverleafGyro):
+    """An analyzer that says 2 s per point and drives the two inputs one after the other."""
+
+    dwell_s = 2.0
+    points_per_frequency = 2
+
+
+def test_points_and_bench_time_with_the_devices_own_dwell(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    summary = TuningRun(
+        parse_config(_config()), out, device=TimedCloverleaf(seed=1), plots=False
+    ).run()
+    on_disk = _points_on_disk(out)
+    assert on_disk > 0 and summary.points == 2 * on_disk
+    assert summary.dwell_source == "device" and summary.dwell_s == 2.0
+    assert summary.bench_time_s == pytest.approx(2.0 * summary.points)
+    saved = json.loads((out / "summary.json").read_text())
+    assert saved["points"] == summary.points and saved["bench_time_s"] == summary.bench_time_s
+
+
+def test_the_configs_dwell_and_the_estimate_from_the_data(tmp_path: Path) -> None:
+    configured = TuningRun(parse_config(_config(dwell_s=3.0)), tmp_path / "a", plots=False).run()
+    assert configured.dwell_source == "config"
+    assert configured.points == _points_on_disk(tmp_path / "a")
+    assert configured.bench_time_s == pytest.approx(3.0 * configured.points)
+    estimated = TuningRun(parse_config(_config()), tmp_path / "b", plots=False).run()
+    assert estimated.dwell_source == "estimated 5 Q/ω"
+    truth = CloverleafGyro(seed=1).truth
+    undamped, _, q = modal_analysis(truth.M, truth.C, truth.stiffness([0.0, 0.0, 0.0]))
+    expected = 5 * float(np.max(q)) / (2 * np.pi * float(np.min(undamped)))
+    assert estimated.dwell_s == pytest.approx(expected, rel=0.2)  # the fitted Q, not the truth
+    assert estimated.bench_time_s == pytest.approx(estimated.points * estimated.dwell_s)
