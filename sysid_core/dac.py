@@ -16,6 +16,7 @@ import itertools
 
 import numpy as np
 
+from sysid_core.confidence import _normalise, _trace_dev
 from sysid_core.measuring import GuardedDevice, applied_bias
 from sysid_core.model import FittedModel
 from sysid_core.tuning import BiasSpace, TuningResult
@@ -40,14 +41,8 @@ def bias_resolution(device: object) -> float | None:
 def predicted_modes_hz(model: FittedModel, w: np.ndarray) -> np.ndarray:
     """The model's two undamped modal frequencies (Hz) at each row of ``w``, ``(S, 2)``."""
     w = np.atleast_2d(np.asarray(w, dtype=float))
-    k = model.K0 + np.einsum("sp,pij->sij", w, model.Kp)
-    if model.Lp is not None:
-        k = k + np.einsum("sp,pij->sij", w**2, model.Lp)
-    lam, vec = np.linalg.eigh(model.M)
-    mh = vec @ np.diag(1.0 / np.sqrt(lam)) @ vec.T
-    a = mh @ k @ mh
-    t = 0.5 * (a[:, 0, 0] + a[:, 1, 1])
-    r = np.hypot(0.5 * (a[:, 0, 0] - a[:, 1, 1]), a[:, 0, 1])
+    t, d = _trace_dev(_normalise(model.M[None], model.stiffness_w(w)))
+    r = np.hypot(d[:, 0], d[:, 1])
     low = np.sqrt(np.clip(t - r, 0.0, None))
     high = np.sqrt(np.clip(t + r, 0.0, None))
     return np.stack([low, high], axis=1) / (2 * np.pi)

@@ -378,6 +378,10 @@ def test_best_dac_code_is_a_code_near_the_answer_and_predicted_best(
         f = predicted_modes_hz(model, (sp.structure_potential - b) ** 2)[0]
         return float(f[1] - f[0])
 
+    w_code = (sp.structure_potential - code) ** 2
+    np.testing.assert_allclose(
+        predicted_modes_hz(model, w_code)[0], frequencies_from_w(model, w_code), rtol=1e-12
+    )
     assert split(code) <= split(device.applied_bias(answer.bias)) + 1e-12
     for offsets in np.ndindex(3, 3, 3):
         other = device.applied_bias(answer.bias + step * (np.array(offsets) - 1.0))
