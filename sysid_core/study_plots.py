@@ -147,6 +147,7 @@ def plot_population(ds: xr.Dataset, out: Path, goal_hz: float = 0.002) -> list[P
             ax.set_ylim(0, 1.02)
             ax.grid(True, which="both", alpha=0.3)
             ax.legend(fontsize=8, loc="lower right")
-            ax.set_title(f"{n} gyros, {model} model, {obj}", fontsize=9)
+            which = "each gyro's own structure" if str(model) == "auto" else f"{model} structure"
+            ax.set_title(f"{n} gyros, {which}, {obj}", fontsize=9)
             paths.append(save_figure(fig, out / f"fig-{obj}-{model}-population.png"))
     return paths
