@@ -11,11 +11,17 @@ import sys
 import warnings
 from typing import Any
 
-from sysid_core import cli_data, cli_fit, cli_study, cli_tune  # noqa: F401 - register commands
+from sysid_core import (  # noqa: F401 - register commands
+    cli_data,
+    cli_fit,
+    cli_fleet,
+    cli_study,
+    cli_tune,
+)
 from sysid_core.cli_app import app, failure
 
 #: The order of ``sysid --help``: the main job first.
-COMMAND_ORDER = ("tune", "fit", "import", "export", "study", "plugins")
+COMMAND_ORDER = ("tune", "tune-fleet", "fit", "import", "export", "study", "plugins")
 app.registered_commands.sort(
     key=lambda c: COMMAND_ORDER.index(c.name) if c.name in COMMAND_ORDER else len(COMMAND_ORDER)
 )

@@ -182,6 +182,7 @@ class ExperimentConfig(_Strict):
     bias_step: float = Field(1.0, gt=0)
     refine_bias_step: float | None = Field(0.25, gt=0)
     design: Literal["one-sided", "two-sided"] | None = None
+    protocol: Literal["lean", "full"] = "lean"
     dwell_s: float | None = Field(None, gt=0)
     refine_span_hz: float = Field(6.0, ge=0)
     refine_resolution_hz: float = Field(0.05, gt=0)

@@ -53,6 +53,16 @@ from sysid_core.errors import ConfigError, FitWarning, UnreachableTuningError
 from sysid_core.evidence import WindowAssessment, assess_window
 from sysid_core.fit import fit
 from sysid_core.io import write_json
+from sysid_core.knowledge import Knowledge
+from sysid_core.lean import (
+    LOCAL_RADIUS,
+    ModeGuess,
+    explained_gap,
+    locate_plan,
+    mode_grid,
+    predicted_uncertainty,
+    scout_grid,
+)
 from sysid_core.measuring import GuardedDevice, applied_bias, check_bias
 from sysid_core.model import FittedModel
 from sysid_core.objective import Progress
@@ -60,6 +70,7 @@ from sysid_core.registry import Registry, get_registry
 from sysid_core.report import PLOT_FORMATS, plot_bias_path, plot_iteration
 from sysid_core.run_summary import IterationRecord, RunSummary, status_line
 from sysid_core.runfolder import RunFolder
+from sysid_core.structures import ModelStructure
 from sysid_core.sweeps import SweepPlan, design_experiments
 from sysid_core.tuning import (
     BiasSpace,
@@ -150,12 +161,20 @@ class TuningRun:
         self.folder.check(resume)
         self.measurements = 0
         self.points = 0
+        self.lean = config.experiment.protocol == "lean"
+        self.known = Knowledge(self.space.tuned, self.space.structure_potential)
+        self.last_verified: tuple[np.ndarray, np.ndarray] | None = None
+        self.locate_plan = locate_plan(self.plan)
         self.notes: list[str] = []
 
     # ------------------------------------------------------------------ measuring
+    def _step(self, it: int) -> float:
+        exp = self.config.experiment
+        return exp.bias_step if it == 1 or exp.refine_bias_step is None else exp.refine_bias_step
+
     def _design(self, bias: np.ndarray, it: int = 1) -> np.ndarray:
         exp = self.config.experiment
-        step = exp.bias_step if it == 1 or exp.refine_bias_step is None else exp.refine_bias_step
+        step = self._step(it)
         law = self.config.model.stiffness
         quadratic = law == "quadratic"
         two_sided = exp.design == "two-sided" or (exp.design is None and law != "linear")
@@ -190,20 +209,23 @@ class TuningRun:
         self.points += int(freqs.size) * points_per_frequency(self.device.device)
         return ds
 
-    def _fit(self, ds: xr.Dataset) -> FittedModel:
-        return fit(ds, self.structure, objective=self.objective, solver=self.solver)
+    def _fit(self, ds: xr.Dataset, structure: ModelStructure | None = None) -> FittedModel:
+        return fit(ds, structure or self.structure, objective=self.objective, solver=self.solver)
 
     # ------------------------------------------------------------------ steps
     def _identify(
         self, it: int, bias: np.ndarray, folder: Path, center_hz: float | None, split_hz: float
     ) -> tuple[xr.Dataset, FittedModel]:
-        design = self._design(bias, it)
-        freqs = self.plan.refine(center_hz, split_hz)
-        parts = [self._measure(b, freqs, folder / f"exp{j}.nc") for j, b in enumerate(design)]
-        ds = concat_experiments(parts).sel(electrode=self.space.tuned)
-        self.say(
-            f"iteration {it}: fitting {self.structure.name} model to {len(design)} experiments"
-        )
+        if self.lean:
+            ds = self._lean_data(it, bias, folder)
+        else:
+            design = self._design(bias, it)
+            freqs = self.plan.refine(center_hz, split_hz)
+            parts = [self._measure(b, freqs, folder / f"exp{j}.nc") for j, b in enumerate(design)]
+            ds = concat_experiments(parts).sel(electrode=self.space.tuned)
+            self.say(
+                f"iteration {it}: fitting {self.structure.name} model to {len(design)} experiments"
+            )
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", FitWarning)
             model = self._fit(ds)
@@ -226,6 +248,46 @@ class TuningRun:
         model.save(folder / "model.nc")
         return ds, model
 
+    def _quiet_fit(self, ds: xr.Dataset, structure: ModelStructure | None = None) -> FittedModel:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", FitWarning)
+            return self._fit(ds, structure)
+
+    def _lean_data(self, it: int, bias: np.ndarray, folder: Path) -> xr.Dataset:
+        """The data a lean run fits in iteration ``it`` (see :mod:`sysid_core.knowledge`).
+
+        Iteration 1 measures the design of eq. (18) where the modes should be. Later ones fit
+        every sweep so far; if that model does not explain the last verification (a stiffness
+        law that holds only locally), the sweeps near ``bias`` are fitted instead, after
+        measuring the local design there if they do not meet the rank condition.
+        """
+        tuned = self.space.index
+        if it > 1:
+            union = self.known.union()
+            if self.last_verified is None:
+                self.say(f"iteration {it}: fitting all {len(self.known)} sweeps so far")
+                return union
+            vb, vf = self.last_verified
+            gap = explained_gap(self._quiet_fit(union).modal(vb[tuned]).frequencies_hz, vf)
+            if gap is None:
+                self.say(f"iteration {it}: fitting all {len(self.known)} sweeps so far")
+                return union
+            self.say(
+                f"iteration {it}: a model of all {len(self.known)} sweeps misses the last "
+                f"verified modes by {gap * 1e3:.3g} mHz; fitting the sweeps near the bias"
+            )
+        radius = LOCAL_RADIUS * self._step(it)
+        if it == 1 or not self.known.meets_rank(bias, radius, self.config.model.stiffness):
+            for j, b in enumerate(self._design(bias, it)):
+                if not self.known.has(b):
+                    self._learn(b, folder / f"exp{j}.nc")
+        if it == 1:
+            self.say(
+                f"iteration {it}: fitting {self.structure.name} model to {len(self.known)} sweeps"
+            )
+            return self.known.union()
+        return self.known.near(bias, radius)
+
     def _sweep(
         self, bias: np.ndarray, freqs: np.ndarray, path: Path, band: bool
     ) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
@@ -234,7 +296,42 @@ class TuningRun:
             # A window without both modes is expected here; the evidence says so, not a warning.
             warnings.simplefilter("ignore", FitWarning)
             vmodel = self._fit(sweep.isel(electrode=[]))
-        return sweep, vmodel, assess_window(sweep, vmodel, band=band)
+        evidence = assess_window(sweep, vmodel, band=band)
+        if self.lean:
+            self.known.add(sweep, evidence)
+        return sweep, vmodel, evidence
+
+    def _learn(self, bias: np.ndarray, path: Path) -> None:
+        """Measure one identification experiment of a lean run where its modes should be.
+
+        The whole band if nothing is known; a scout window if the bias steps an electrode not
+        varied before; else a mode grid around the modes predicted from every sweep so far
+        (:mod:`sysid_core.lean`). A sweep that does not show both modes is followed by the
+        whole band at the same bias.
+        """
+        guess, scout = self.known.guess(bias, self.structure, self._quiet_fit)
+        locate = self.locate_plan.band()
+        if guess is None:
+            first = locate
+        elif scout:
+            grid = scout_grid(guess, self.locate_plan)
+            first = locate if grid.size >= locate.size else grid
+        else:
+            first = mode_grid(guess, self.plan)
+        tries = [("", first), ("-locate", locate), ("-band", self.plan.band())]
+        done: list[np.ndarray] = []
+        for suffix, freqs in tries:
+            if any(d.size == freqs.size and np.allclose(d, freqs) for d in done):
+                continue
+            name = f"{path.stem}{suffix}.nc"
+            _, _, evidence = self._sweep(bias, freqs, path.with_name(name), True)
+            if evidence.ok:
+                return
+            done.append(freqs)
+            self.say(
+                f"{path.parent.name}/{name}: the sweep does not show both modes "
+                f"({evidence.failures()})"
+            )
 
     def _verify(
         self, bias: np.ndarray, predicted: TuningResult, model: FittedModel, folder: Path
@@ -246,7 +343,24 @@ class TuningRun:
         ) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
             return self._sweep(bias, freqs, folder / name, band)
 
-        return verify(model.modal(bias[self.space.index]), predicted, self.plan, sweep, self.say)
+        modes = model.modal(bias[self.space.index])
+        if not self.lean:
+            return verify(modes, predicted, self.plan, sweep, self.say)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bw = np.asarray(modes.frequencies_hz) / np.asarray(modes.q)
+        if not np.all(np.isfinite(bw) & (bw > 0)):
+            bw = np.full(2, self.plan.verify_resolution_hz)
+        sigma = predicted_uncertainty(predicted)
+
+        def window(center: float, split: float, around_prediction: bool) -> np.ndarray:
+            guess = ModeGuess.of(
+                [center - split / 2, center + split / 2],
+                bw,
+                sigma if around_prediction else 0.0,
+            )
+            return mode_grid(guess, self.plan)
+
+        return verify(modes, predicted, self.locate_plan, sweep, self.say, lean=window)
 
     def _best_effort(
         self, exc: UnreachableTuningError, model: FittedModel, space: BiasSpace, it: int
@@ -421,6 +535,7 @@ class TuningRun:
                     evidence=[w.as_dict() for w in ver.windows],
                     gamma=model.gamma,
                     fit_time_s=float(model.meta["fit_time_s"]),
+                    points=self.points,
                 )
             )
             summary.bias = bias.tolist()
@@ -455,6 +570,8 @@ class TuningRun:
                 break
             # The next identification starts from what was measured: around the modes if
             # they were found, over the whole band if not.
+            if ver.verified and ver.frequencies_hz is not None:
+                self.last_verified = (bias.copy(), np.asarray(ver.frequencies_hz, dtype=float))
             if ver.frequencies_hz is not None:
                 center, split = ver.frequency_hz, float(ver.split_hz or 0.0)
             else:

@@ -21,7 +21,7 @@ CONFIDENCE_KEYS = ("confidence_level", "bias_ci", "split_ci_hz", "frequency_ci_h
 
 @dataclass
 class IterationRecord:
-    """What one iteration did."""
+    """What one iteration did (``points``: frequency points measured by the run so far)."""
 
     iteration: int
     experiments: list[list[float]]
@@ -35,6 +35,7 @@ class IterationRecord:
     evidence: list[dict[str, Any]]
     gamma: float
     fit_time_s: float
+    points: int = 0
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-friendly form."""

@@ -9,9 +9,7 @@ run cut off earlier (its ``runs/<key>`` folder but no result) starts again from 
 
 from __future__ import annotations
 
-import asyncio
 import json
-import os
 import time
 import traceback
 from collections.abc import Callable
@@ -20,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from sysid_core.batch import run_batch
 from sysid_core.config import parse_config
 from sysid_core.errors import ConfigError
 from sysid_core.io import write_json
@@ -117,6 +116,7 @@ def run_one(spec: RunSpec) -> dict[str, Any]:
                     "true_frequency_hz": float(f_true.mean()),
                     "gamma": rec.gamma,
                     "fit_time_s": rec.fit_time_s,
+                    "points": rec.points,
                     "bias_ci": bias_ci,
                     "split_ci_hz": split_ci,
                     "true_degenerate_bias": target,
@@ -230,51 +230,14 @@ def execute(
         for spec in todo:
             record(run_one(spec))
     elif todo:
-        from dask.distributed import Client, LocalCluster, as_completed
-
-        cluster = None
-        own = client is None
-        if client is None:
-            if scheduler:
-                client = Client(scheduler)
-            else:
-                n = workers or os.cpu_count() or 1
-                cluster = LocalCluster(
-                    n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0"
-                )
-                client = Client(cluster)
-        pending = {f"sysid-{s.key}": s for s in todo}
-        try:
-            try:
-                futures = client.map(run_one, todo, key=list(pending), pure=False)
-                completed = as_completed(futures)
-            except Exception as exc:  # no cluster to run on: every run failed
-                for spec in list(pending.values()):
-                    record(_failure(spec, exc))
-                pending.clear()
-            while pending:
-                try:
-                    future = next(completed)
-                except StopIteration:
-                    break
-                except Exception as exc:  # the cluster itself failed: keep what is saved
-                    for spec in list(pending.values()):
-                        record(_failure(spec, exc))
-                    pending.clear()
-                    break
-                finished = pending.pop(future.key, None)
-                if finished is None:
-                    continue
-                try:
-                    outcome = future.result()
-                except (Exception, asyncio.CancelledError) as exc:  # KilledWorker, cancelled
-                    outcome = _failure(finished, exc)
-                record(outcome)
-            for spec in pending.values():  # never reported back (should not happen)
-                record(_failure(spec, RuntimeError("the cluster never reported this run")))
-        finally:
-            if own:
-                client.close()
-            if cluster is not None:
-                cluster.close()
+        run_batch(
+            todo,
+            run_one,
+            [f"sysid-{s.key}" for s in todo],
+            record,
+            _failure,
+            workers=workers,
+            scheduler=scheduler,
+            client=client,
+        )
     return [done[s.key] for s in specs]

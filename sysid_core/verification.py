@@ -1,8 +1,10 @@
 """Step 4 of the paper's loop, with evidence: verify a tuning by measuring at its bias.
 
 :func:`verify` runs the sweeps in order: the window around the predicted modes (skipped when
-the predicted split is wider than it); if it fails, the whole band, whose fit locates the modes;
-then, if they are close, a narrow window around the located modes. Each sweep is judged by
+the predicted split is wider than it); if it shows both modes but too coarsely (a lean run's
+window around an uncertain prediction), a fine window around them; if it fails, the whole
+band, whose fit locates the modes; then, if they are close, a narrow window around the located
+modes. Each sweep is judged by
 :func:`sysid_core.evidence.assess_window`. A split from a whole-band sweep is reported as
 *located* (coarse); only a narrow window that passes every check *verifies* a split, and only a
 verified split can make a run converge.
@@ -23,11 +25,13 @@ from sysid_core.objective import Progress
 from sysid_core.sweeps import SweepPlan
 from sysid_core.tuning import TuningResult
 
-__all__ = ["Sweep", "Verification", "verify"]
+__all__ = ["Sweep", "Verification", "Window", "verify"]
 
 #: Measures a sweep at the verified bias and fits it: ``(frequencies, file name, whole band?)``
 #: to ``(sweep, single-bias model, evidence)``.
 Sweep = Callable[[np.ndarray, str, bool], tuple[xr.Dataset, FittedModel, WindowAssessment]]
+#: Chooses a window's frequencies: ``(center, split, around a prediction?)`` to frequencies.
+Window = Callable[[float, float, bool], np.ndarray]
 
 
 @dataclass
@@ -93,6 +97,7 @@ def verify(
     plan: SweepPlan,
     sweep: Sweep,
     say: Progress,
+    lean: Window | None = None,
 ) -> Verification:
     """Verify a tuning at its bias with evidence (see the module docstring).
 
@@ -108,6 +113,10 @@ def verify(
         Measures and fits one sweep (see :data:`Sweep`).
     say : callable
         Receives progress lines.
+    lean : callable, optional
+        Chooses the windows' points instead of the plan's even grid (a lean run's
+        :func:`~sysid_core.lean.mode_grid`): ``(center, split, predicted)`` to frequencies,
+        ``predicted`` false for the window around modes a whole-band sweep located.
     """
     rep = predicted_modes
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -115,7 +124,9 @@ def verify(
     bw_min = float(np.min(bw)) if np.all(np.isfinite(bw) & (bw > 0)) else np.inf
     bw_max = float(np.max(bw)) if np.isfinite(bw_min) else 0.0
 
-    def window(center: float, split: float) -> np.ndarray:
+    def window(center: float, split: float, predicted: bool = True) -> np.ndarray:
+        if lean is not None:
+            return lean(center, split, predicted)
         span = max(plan.verify_span_hz, 2 * split + 6 * bw_max)
         return plan.window(center, span, min(plan.verify_resolution_hz, bw_min))
 
@@ -126,6 +137,17 @@ def verify(
         windows.append(ev)
         if ev.ok:
             return Verification("verified", ev.frequencies_hz, windows, swept, vmodel)
+        if ev.failed_only("resolved"):
+            # a coarse window (an uncertain prediction) found both modes: a fine one around them
+            say(
+                f"verification: modes found near {ev.frequencies_hz[0]:.3f} / "
+                f"{ev.frequencies_hz[1]:.3f} Hz by a coarse window; measuring a fine one"
+            )
+            freqs = window(ev.center_hz, ev.split_hz, False)
+            swept2, vmodel2, ev2 = sweep(freqs, "verify-fine.nc", False)
+            windows.append(ev2)
+            if ev2.ok:
+                return Verification("verified", ev2.frequencies_hz, windows, swept2, vmodel2)
         say(
             "verification: the window around the predicted modes does not show both modes "
             f"({ev.failures()}); sweeping the whole band to locate them"
@@ -146,7 +168,7 @@ def verify(
         f"verification: modes located near {located[0]:.3f} / {located[1]:.3f} Hz; "
         "measuring a window around them"
     )
-    freqs = window(ev.center_hz, ev.split_hz)
+    freqs = window(ev.center_hz, ev.split_hz, False)
     swept2, vmodel2, ev2 = sweep(freqs, "verify-2.nc", False)
     windows.append(ev2)
     if ev2.ok:

@@ -84,11 +84,34 @@ class ClarabelSolver(Solver):
                 ) from None
         self.options = {"verbose": False, "chordal_decomposition_enable": False, **options}
 
+    #: Static regularisation of the retry after an "AlmostSolved" (Clarabel's default: 1e-8).
+    RETRY_REGULARIZATION = 1e-7
+
     def solve(self, program: ConicProgram) -> ConicSolution:
+        """Solve; after an "AlmostSolved", once more with a stronger static regularisation.
+
+        Measured on few-point fits (a lean run's 17-point window around two degenerate modes):
+        the default stalls at "AlmostSolved" after 11 iterations, while a static
+        regularisation of :data:`RETRY_REGULARIZATION` reaches "Solved" at the same tolerances
+        with the same answer as SCS. The retry is skipped when the option was set by the user.
+        """
+        try:
+            return self._solve(program, {})
+        except SolverError as exc:
+            if (
+                exc.status is not SolveStatus.INACCURATE
+                or "static_regularization_constant" in self.options
+            ):
+                raise
+            return self._solve(
+                program, {"static_regularization_constant": self.RETRY_REGULARIZATION}
+            )
+
+    def _solve(self, program: ConicProgram, extra: dict[str, Any]) -> ConicSolution:
         import clarabel
 
         settings = clarabel.DefaultSettings()
-        for key, value in self.options.items():
+        for key, value in {**self.options, **extra}.items():
             setattr(settings, key, value)
         perm = _row_permutation(program)
         a = sp.csc_matrix(program.A)[perm]

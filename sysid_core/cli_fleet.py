@@ -1,0 +1,82 @@
+"""``sysid tune-fleet``: tune many gyros concurrently (:mod:`sysid_core.fleet`)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from sysid_core.cli_app import JsonOption, OutDirOption, command, err, out
+
+
+@command("tune-fleet")
+def tune_fleet_cmd(
+    fleet: Annotated[Path, typer.Argument(help="Fleet file (TOML): a config and the gyros.")],
+    out_dir: OutDirOption = None,
+    as_json: JsonOption = False,
+    resume: Annotated[
+        bool,
+        typer.Option("--resume", help="Keep converged gyros; continue the others from disk."),
+    ] = False,
+    workers: Annotated[
+        int | None, typer.Option("--workers", help="Local worker processes (default: cores).")
+    ] = None,
+    scheduler: Annotated[
+        str | None, typer.Option("--scheduler", help="Address of a running dask scheduler.")
+    ] = None,
+    no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip each gyro's plots.")] = False,
+) -> None:
+    """Tune every gyro of a fleet file, each in its own run folder, on dask.
+
+    A gyro that fails (bad configuration, device error, dead worker) never stops the others.
+    Writes OUT/fleet.json and OUT/fleet.md (the table of all). Exits 0 only when every gyro
+    converged; otherwise 1, naming the gyros that did not (run again with --resume).
+    """
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from sysid_core.errors import RunsFailedError
+    from sysid_core.fleet import run_fleet
+
+    target = out_dir or Path("runs") / fleet.stem
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=err,
+        transient=as_json,
+        disable=as_json and not err.is_terminal,
+    ) as bar:
+        task = bar.add_task("fleet", total=None)
+
+        def progress(done: int, total: int, message: str) -> None:
+            bar.update(task, completed=done, total=total, description=message[:60])
+            if not as_json:
+                err.print(message, highlight=False)
+
+        results = run_fleet(fleet, target, resume, workers, scheduler, progress, plots=not no_plots)
+    bad = [r for r in results if r.get("error") or not r.get("converged")]
+    if as_json:
+        compact = [{k: v for k, v in r.items() if k != "traceback"} for r in results]
+        print(
+            json.dumps(
+                {
+                    "gyros": compact,
+                    "converged": len(results) - len(bad),
+                    "failed": len([r for r in results if r.get("error")]),
+                    "out": str(target),
+                }
+            ),
+            flush=True,
+        )
+    else:
+        out.print((target / "fleet.md").read_text(), highlight=False, markup=False)
+        out.print(f"{len(results) - len(bad)} of {len(results)} gyros converged; see {target}/")
+    if bad:
+        names = ", ".join(r["name"] for r in bad)
+        raise RunsFailedError(
+            f"{len(bad)} of {len(results)} gyro(s) did not converge or failed ({names}); see "
+            f"{target}/fleet.md, continue with --resume"
+        )
