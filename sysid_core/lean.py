@@ -13,7 +13,8 @@ frequency (the feedthrough polynomial). So a sweep of a lean run is:
   resolution: it only has to locate the modes;
 * otherwise a **mode grid** (:func:`mode_grid`): around each predicted mode, ``±(2 bw + 2σ)``
   (``σ`` the prediction's uncertainty) at a step of ``bw/2`` or coarser so that no mode gets
-  more than ``2·MAX_HALF_POINTS + 1`` points, plus :data:`ANCHORS` far points on either side.
+  more than ``2·MAX_HALF_POINTS + 1`` points (with ``σ = 0``: 7 points ``2 bw/3`` apart), plus
+  :data:`ANCHORS` far points, half on either side.
 
 A sweep whose evidence (:func:`sysid_core.evidence.assess_window`) does not show both modes is
 followed by the whole band at the same bias, so a wrong guess costs points, never a result.

@@ -164,6 +164,7 @@ class TuningRun:
         self.lean = config.experiment.protocol == "lean"
         self.known = Knowledge(self.space.tuned, self.space.structure_potential)
         self.last_verified: tuple[np.ndarray, np.ndarray] | None = None
+        self.moved = False  # the last answer was a move to the best reachable bias
         self.locate_plan = locate_plan(self.plan)
         self.notes: list[str] = []
 
@@ -262,7 +263,12 @@ class TuningRun:
         measuring the local design there if they do not meet the rank condition.
         """
         tuned = self.space.index
-        if it > 1:
+        if it > 1 and self.moved:
+            self.say(
+                f"iteration {it}: the run moved to the best reachable bias; measuring the local "
+                "design there"
+            )
+        elif it > 1:
             union = self.known.union()
             if self.last_verified is None:
                 self.say(f"iteration {it}: fitting all {len(self.known)} sweeps so far")
@@ -475,6 +481,7 @@ class TuningRun:
                 result, local = solve_criterion(self.criterion, model, space)
             except UnreachableTuningError as exc:
                 result = self._best_effort(exc, model, space, it)
+            self.moved = "unreachable" in result.info
             answer = dataclasses.replace(result)  # the criterion's, before the DAC code
             self._apply_best_code(model, result, space)
             new_bias = check_bias(self.device.device, result.bias)

@@ -57,6 +57,9 @@ PAPER_MODEL = {"structure": "act", "order": 1, "bias_terms": 0, "stiffness": "li
 #: The pipeline's mechanics (experiment counts, resume, limits) are tested with the one-sided
 #: design of the linear law (n + 1 experiments); the default law's design: test_quadratic_law.
 LINEAR_LAW = {"stiffness": "linear"}
+#: ... and the full protocol (every iteration measures its whole design); the default lean
+#: protocol's mechanics: test_lean.
+FULL_PROTOCOL = {"protocol": "full"}
 MEASUREMENT = re.compile(r"(exp\d+|verify(-\d+)?)\.nc")
 
 
@@ -128,7 +131,7 @@ def config(
     data: dict[str, Any] = {
         "device": device or {"name": "cloverleaf"},
         "tuning": tuning if tuning is not None else dict(TWO_ELECTRODES),
-        "experiment": {**REDUCED, **(experiment or {})},
+        "experiment": {**FULL_PROTOCOL, **REDUCED, **(experiment or {})},
         "model": dict(LINEAR_LAW),
         **tables,
     }
@@ -277,7 +280,7 @@ def _resume_config(tmp_path: Path) -> Path:
             "model": PAPER_MODEL,
             "objective": {"name": "minimax"},
             "tuning": TWO_ELECTRODES,
-            "experiment": REDUCED,
+            "experiment": {**FULL_PROTOCOL, **REDUCED},
         },
     )
 

@@ -151,7 +151,8 @@ def test_random_gyro_second_iteration_under_2_mhz(tmp_path: Path) -> None:
             "max_iterations": 2,
             "acceptance_hz": 1e-12,
         },
-        "experiment": {"resolution_hz": 1.0, "verify_resolution_hz": 0.02},
+        # the full protocol: each iteration identifies from its own (two-sided) design
+        "experiment": {"protocol": "full", "resolution_hz": 1.0, "verify_resolution_hz": 0.02},
     }
     result = tune(config, tmp_path / "run", plots=False)
     assert len(result.history) == 2

@@ -1,0 +1,210 @@
+"""The lean protocol: points where the modes are, every sweep reused, the band after a miss."""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import xarray as xr
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from sysid_cloverleaf import CloverleafGyro
+from sysid_random_gyro import RandomGyro
+
+from sysid_core import lean
+from sysid_core.config import parse_config
+from sysid_core.errors import DeviceError, UnreachableTuningError
+from sysid_core.evidence import local_steps
+from sysid_core.lean import ModeGuess, mode_grid, scout_grid
+from sysid_core.pipeline import TuningRun
+from sysid_core.sweeps import MIN_POINTS, SweepPlan
+
+PLAN = SweepPlan((4385.0, 4445.0), 0.5, 6.0, 0.05, 1.0, 0.01, 20_000)
+MAIN_JOB = {
+    "device": {"name": "cloverleaf", "seed": 1},
+    "tuning": {
+        "criterion": "degenerate",
+        "electrodes": ["B1", "B2"],
+        "start_bias": [0.0, 0.0, 0.0],
+        "acceptance_hz": 0.001,
+        "max_iterations": 4,
+    },
+    "experiment": {"band_hz": [4385.0, 4445.0]},
+}
+
+
+class Recording(CloverleafGyro):
+    """A cloverleaf that records its measurements (bias, points) and may fail on the n-th;
+    its noise depends only on (bias, grid), so a resumed run sees the same data."""
+
+    def __init__(self, fail_on: int | None = None, **options: Any) -> None:
+        super().__init__(**options)
+        self.fail_on = fail_on
+        self.calls: list[tuple[tuple[float, ...], int]] = []
+
+    def measure(self, bias: Any, frequencies_hz: Any) -> xr.DataArray:
+        f = np.asarray(frequencies_hz, dtype=float)
+        self.calls.append((tuple(float(b) for b in bias), f.size))
+        if self.fail_on is not None and len(self.calls) == self.fail_on:
+            raise RuntimeError("lost the analyzer")
+        key = hashlib.sha256(np.asarray(bias, dtype=float).tobytes() + f.tobytes()).digest()
+        self._rng = np.random.default_rng(int.from_bytes(key[:8], "little"))
+        return super().measure(bias, f)
+
+
+def files(out: Path, folder: str) -> list[str]:
+    return sorted(p.name for p in (out / folder).glob("*.nc") if "model" not in p.name)
+
+
+# ------------------------------------------------------------------ where the points go
+def test_mode_grid_is_dense_at_the_modes_and_sparse_elsewhere() -> None:
+    guess = ModeGuess.of([4424.0, 4429.0], [0.1, 0.12])
+    f = mode_grid(guess, PLAN)
+    assert MIN_POINTS <= f.size <= 2 * (2 * lean.MAX_HALF_POINTS + 1) + lean.ANCHORS
+    assert np.all(np.diff(f) > 0) and f[0] >= 4385.0 and f[-1] <= 4445.0
+    # at each mode a step under its bandwidth; far points reach refine_span / 2 beyond
+    bw = guess.bandwidth_hz
+    step = np.maximum(
+        bw / lean.POINTS_PER_BANDWIDTH, lean.CORE_BANDWIDTHS * bw / lean.MAX_HALF_POINTS
+    )
+    np.testing.assert_allclose(local_steps(f, guess.frequencies_hz, bw), step, rtol=1e-6)
+    assert np.all(step < bw)
+    assert f[0] == pytest.approx(4424.0 - 3.0) and f[-1] == pytest.approx(4429.0 + 3.0)
+    # an uncertain guess spreads the same number of points wider
+    wide = mode_grid(ModeGuess.of([4424.0, 4429.0], [0.1, 0.12], 0.5), PLAN)
+    assert wide.size == f.size
+    assert np.ptp(wide[(wide > 4422) & (wide < 4426)]) > np.ptp(f[(f > 4422) & (f < 4426)])
+    # two degenerate modes share one grid, still at least MIN_POINTS points
+    both = mode_grid(ModeGuess.of([4430.0, 4430.0], [0.1, 0.1]), PLAN)
+    assert both.size >= MIN_POINTS and np.unique(both).size == both.size
+
+
+def test_scout_and_band_edges() -> None:
+    near = scout_grid(ModeGuess.of([4424.0, 4429.0], [0.1, 0.1]), PLAN)
+    assert near[0] == pytest.approx(4424.0 - 2.5) and near[-1] <= 4429.0 + 2.5 + 1e-9
+    # a split so wide that the windows would cover most of the band: the band itself
+    far = scout_grid(ModeGuess.of([4395.0, 4435.0], [0.1, 0.1]), PLAN)
+    np.testing.assert_array_equal(far, PLAN.band())
+    # modes at the band's edge: every point stays inside
+    edge = mode_grid(ModeGuess.of([4385.5, 4390.0], [0.1, 0.1]), PLAN)
+    assert edge[0] >= 4385.0
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    start=st.floats(1000.0, 30_000.0),
+    step=st.floats(0.001, 2.0),
+    n=st.integers(11, 200),
+    where=st.floats(0.1, 0.9),
+    bw=st.floats(0.001, 5.0),
+)
+def test_local_step_of_an_even_grid_is_its_step(
+    start: float, step: float, n: int, where: float, bw: float
+) -> None:
+    f = start + step * np.arange(n)
+    mode = start + where * step * (n - 1)
+    got = local_steps(f, np.array([mode, mode]), np.array([bw, bw]))
+    np.testing.assert_allclose(got, step, rtol=1e-6)
+
+
+# ------------------------------------------------------------------ runs
+@pytest.fixture(scope="module")
+def lean_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Any, Recording]:
+    out = tmp_path_factory.mktemp("lean") / "run"
+    dev = Recording(seed=1)
+    summary = TuningRun(parse_config(MAIN_JOB), out, device=dev, plots=False).run()
+    return out, summary, dev
+
+
+def test_lean_run_tunes_on_few_points(lean_run: tuple[Path, Any, Recording]) -> None:
+    out, summary, dev = lean_run
+    assert summary.converged and summary.split_hz <= 0.001
+    assert dev.true_split_hz(summary.bias) <= 0.001  # the truth, not the measurement
+    # the band once (61 points, to locate), then only around the modes
+    assert dev.calls[0][1] == lean.LOCATE_POINTS
+    assert all(n <= 30 for _, n in dev.calls[1:])
+    assert summary.points == sum(n for _, n in dev.calls) < 200
+    assert files(out, "iter01") == [f"exp{j}.nc" for j in range(5)] + ["verify.nc"]
+    # later iterations reuse every sweep: they measure only their verification
+    for rec in summary.history[1:]:
+        assert files(out, f"iter{rec.iteration:02d}") == ["verify.nc"]
+
+
+def test_lean_resume_replays_the_same_choices(
+    lean_run: tuple[Path, Any, Recording], tmp_path: Path
+) -> None:
+    _, reference, ref_dev = lean_run
+    out = tmp_path / "run"
+    cfg = parse_config(MAIN_JOB)
+    with pytest.raises(DeviceError, match="lost the analyzer"):
+        TuningRun(cfg, out, device=Recording(fail_on=4, seed=1), plots=False).run()
+    dev = Recording(seed=1)
+    resumed = TuningRun(cfg, out, resume=True, device=dev, plots=False).run()
+    assert dev.calls == ref_dev.calls[3:]  # the 3 saved sweeps are read, the rest measured
+    assert resumed.bias == reference.bias and resumed.points == reference.points
+
+
+def test_a_missed_guess_falls_back_to_the_band(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Scouts far too narrow: the modes are not in them; the locating band finds them."""
+    monkeypatch.setattr(lean, "SCOUT_SPLITS", 0.0)
+    monkeypatch.setattr(lean, "SCOUT_BANDWIDTHS", 0.5)
+    dev = Recording(seed=1)
+    messages: list[str] = []
+    cfg = parse_config({**MAIN_JOB, "tuning": {**MAIN_JOB["tuning"], "acceptance_hz": 0.01}})
+    summary = TuningRun(cfg, tmp_path, device=dev, plots=False, progress=messages.append).run()
+    assert summary.converged and dev.true_split_hz(summary.bias) <= 0.01
+    assert "exp1-locate.nc" in files(tmp_path, "iter01")
+    assert any("exp1.nc: the sweep does not show both modes" in m for m in messages)
+
+
+def test_a_law_that_holds_only_locally_gets_a_local_design(tmp_path: Path) -> None:
+    """Random gyro 0's bias law is not v²: a model of all sweeps misses the verification,
+    so the run measures the local design (0.25 V) and fits the sweeps near the bias."""
+    gyro = RandomGyro(seed=0)
+    cfg = parse_config(
+        {
+            "device": {"name": "random-gyro", "seed": 0},
+            "model": {"structure": gyro.structure},
+            "tuning": {
+                "criterion": "degenerate",
+                "electrodes": ["B1", "B2"],
+                "start_bias": [0.0] * len(gyro.electrodes),
+                "acceptance_hz": 0.002,
+                "max_iterations": 4,
+            },
+            "experiment": {"bias_step": 3.0},
+        }
+    )
+    messages: list[str] = []
+    summary = TuningRun(cfg, tmp_path, plots=False, progress=messages.append).run()
+    local = [m for m in messages if "misses the last verified modes" in m]
+    assert local
+    later = [
+        r.iteration
+        for r in summary.history[1:]
+        if len(files(tmp_path, f"iter{r.iteration:02d}")) > 2
+    ]
+    assert later  # some later iteration measured a design, not only its verification
+    assert summary.converged and gyro.true_split_hz(summary.bias) < 0.002 + 0.001
+    assert summary.points < 600
+
+
+def test_a_move_to_the_best_reachable_bias_is_identified_there(tmp_path: Path) -> None:
+    dev = Recording(seed=1)
+    cfg = parse_config(
+        {
+            "device": {"name": "cloverleaf", "seed": 1},
+            "model": {"stiffness": "linear"},
+            "tuning": {"criterion": "target", "target_hz": 4460.0, "max_iterations": 3},
+        }
+    )
+    with pytest.raises(UnreachableTuningError, match="4460"):
+        TuningRun(cfg, tmp_path, device=dev, plots=False).run()
+    assert "exp1.nc" in files(tmp_path, "iter02")  # the local design around the new bias
+    moved = np.array(dev.calls[-1][0])
+    assert np.max(np.abs(moved - np.array(dev.calls[-2][0]))) <= 0.25 + 1e-9
