@@ -26,12 +26,13 @@ import numpy as np
 
 
 def _runs(folder: Path) -> dict[str, dict[str, Any]]:
-    """The successful runs of a study folder by key (start and structure or gyro)."""
+    """The successful runs of a study folder by start or gyro."""
     runs = {}
     for path in sorted((folder / "results").glob("*.json")):
         res = json.loads(path.read_text())
         if res.get("error") is None and res.get("iterations"):
-            runs[res["key"]] = res
+            # the same start (grid position and start bias) or gyro (seed), whatever the model
+            runs[f"{res['index']}:{res['seed']}:{res['start']}"] = res
     if not runs:
         sys.exit(f"bench_time: {folder} holds no successful study runs (results/*.json)")
     return runs

@@ -37,9 +37,10 @@ def tune_fleet_cmd(
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     from sysid_core.errors import RunsFailedError
-    from sysid_core.fleet import run_fleet
+    from sysid_core.fleet import check_fleet, run_fleet
 
     target = out_dir or Path("runs") / fleet.stem
+    check_fleet(fleet, target, resume)  # refuse a bad fleet file before showing progress
     with Progress(
         TextColumn("{task.description}"),
         BarColumn(),

@@ -38,7 +38,7 @@ from sysid_core.config import parse_config, read_toml
 from sysid_core.errors import ConfigError, RunFolderError
 from sysid_core.io import atomic_write, write_json
 
-__all__ = ["FleetConfig", "GyroJob", "load_fleet", "run_fleet", "tune_gyro"]
+__all__ = ["FleetConfig", "GyroJob", "check_fleet", "load_fleet", "run_fleet", "tune_gyro"]
 
 _NAME = r"^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$"
 
@@ -97,6 +97,9 @@ def load_fleet(path: str | Path) -> tuple[list[str], list[dict[str, Any] | str]]
     except ValidationError as exc:
         first = exc.errors()[0]
         where = ".".join(str(x) for x in first["loc"])
+        if first["type"] == "extra_forbidden":
+            known = "config, seeds, [[gyro]]" if len(first["loc"]) == 1 else "name, config, device"
+            raise ConfigError(f"{path}: unknown key {where!r} (known: {known})") from None
         raise ConfigError(f"{path}: {where}: {first['msg']}") from None
     entries = [GyroEntry(name=f"seed-{s}", device={"seed": s}) for s in fleet.seeds]
     entries += fleet.gyro
@@ -108,7 +111,10 @@ def load_fleet(path: str | Path) -> tuple[list[str], list[dict[str, Any] | str]]
         raise ConfigError(f"{path}: gyro name(s) {', '.join(dup)} appear more than once")
     base: dict[str, Any] | None = None
     if fleet.config is not None:
-        base = read_toml(path.parent / fleet.config)
+        try:
+            base = read_toml(path.parent / fleet.config)
+        except ConfigError as exc:
+            raise ConfigError(f"{path}: config = {fleet.config!r}: {exc}") from None
     configs: list[dict[str, Any] | str] = []
     for e in entries:
         if e.config is not None:
@@ -184,6 +190,29 @@ def _table(results: list[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def check_fleet(
+    fleet_file: str | Path, out: str | Path, resume: bool
+) -> tuple[list[str], list[dict[str, Any] | str]]:
+    """Load the fleet file (:func:`load_fleet`) and check ``out``, writing nothing.
+
+    Raises
+    ------
+    ConfigError
+        For a fleet file that is not valid.
+    RunFolderError
+        If ``out`` is a file, or holds files and ``resume`` is not set.
+    """
+    found = load_fleet(fleet_file)
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise RunFolderError(f"--out {out} is a file, not a folder; choose another --out")
+    if out.exists() and any(out.iterdir()) and not resume:
+        raise RunFolderError(
+            f"{out} is not empty; continue that fleet with --resume, or choose another --out"
+        )
+    return found
+
+
 def run_fleet(
     fleet_file: str | Path,
     out: str | Path,
@@ -202,12 +231,8 @@ def run_fleet(
     RunFolderError
         If ``out`` holds files and ``resume`` is not set.
     """
-    names, configs = load_fleet(fleet_file)
+    names, configs = check_fleet(fleet_file, out, resume)
     out = Path(out)
-    if out.exists() and any(out.iterdir()) and not resume:
-        raise RunFolderError(
-            f"{out} is not empty; continue that fleet with --resume, or choose another --out"
-        )
     out.mkdir(parents=True, exist_ok=True)
     say = progress or (lambda _d, _t, _m: None)
     results: dict[str, dict[str, Any]] = {}
