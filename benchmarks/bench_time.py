@@ -116,9 +116,10 @@ def summarize(
 def markdown(rows: list[dict[str, Any]], reference: str | None, target_hz: float) -> str:
     """The table of docs/bench-time.md."""
     t = f"{target_hz * 1e3:g} mHz"
+    ref = reference or "reference"
     head = (
         f"| protocol | runs reaching {t} | points to {t}: median / max | bench time to {t}: "
-        "median (h) | × reference | starts worse than reference | iterations (median) "
+        f"median (h) | × {ref} | runs needing more points than {ref} | iterations (median) "
         "| true split at the end: median / 90 % / max (mHz) |"
     )
     lines = [head, "|---|---|---|---|---|---|---|---|"]

@@ -227,15 +227,16 @@ def predicted_uncertainty(predicted: TuningResult) -> float:
     return float(sum(finite))
 
 
-def locate_plan(plan: SweepPlan) -> SweepPlan:
-    """``plan`` with a whole-band sweep of at most :data:`LOCATE_POINTS` points.
+def locate_plan(plan: SweepPlan, points: int = LOCATE_POINTS) -> SweepPlan:
+    """``plan`` with a whole-band sweep of at most ``points`` points.
 
     A lean run sweeps the whole band only to locate the modes (the mode grids measure them),
-    so its step is ``resolution_hz`` or ``band / (LOCATE_POINTS - 1)``, whichever is coarser;
-    a sweep that does not locate them is followed by the band at ``resolution_hz``.
+    so its step is ``resolution_hz`` or ``band / (points - 1)``, whichever is coarser; a sweep
+    that does not locate them is followed by one four times as dense, then by the band at
+    ``resolution_hz`` (each only if it has fewer points than the next).
     """
     lo, hi = plan.band_hz
-    step = max(plan.resolution_hz, (hi - lo) / (LOCATE_POINTS - 1))
+    step = max(plan.resolution_hz, (hi - lo) / (points - 1))
     return dataclasses.replace(plan, resolution_hz=step)
 
 

@@ -56,6 +56,7 @@ from sysid_core.io import write_json
 from sysid_core.knowledge import Knowledge
 from sysid_core.lean import (
     LOCAL_RADIUS,
+    LOCATE_POINTS,
     ModeGuess,
     explained_gap,
     locate_plan,
@@ -312,8 +313,9 @@ class TuningRun:
 
         The whole band if nothing is known; a scout window if the bias steps an electrode not
         varied before; else a mode grid around the modes predicted from every sweep so far
-        (:mod:`sysid_core.lean`). A sweep that does not show both modes is followed by the
-        whole band at the same bias.
+        (:mod:`sysid_core.lean`). A sweep that does not show both modes is followed, at the
+        same bias, by the locating band sweep, one four times as dense, then the band at
+        ``resolution_hz``, until one shows them (or none is left).
         """
         guess, scout = self.known.guess(bias, self.structure, self._quiet_fit)
         locate = self.locate_plan.band()
@@ -324,7 +326,13 @@ class TuningRun:
             first = locate if grid.size >= locate.size else grid
         else:
             first = mode_grid(guess, self.plan)
-        tries = [("", first), ("-locate", locate), ("-band", self.plan.band())]
+        denser = locate_plan(self.plan, 4 * (LOCATE_POINTS - 1) + 1).band()
+        tries = [
+            ("", first),
+            ("-locate", locate),
+            ("-locate4", denser),
+            ("-band", self.plan.band()),
+        ]
         done: list[np.ndarray] = []
         for suffix, freqs in tries:
             if any(d.size == freqs.size and np.allclose(d, freqs) for d in done):
