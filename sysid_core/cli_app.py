@@ -12,10 +12,11 @@ commands live in ``cli_fit``, ``cli_tune`` and ``cli_study``; ``cli`` runs the p
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Annotated, Any, TypeVar
 
@@ -89,6 +90,42 @@ OutDirOption = Annotated[
     Path | None, typer.Option("--out", help="Output directory (default: runs/<config>).")
 ]
 JsonOption = Annotated[bool, typer.Option("--json", help="Last stdout line: one JSON object.")]
+#: Options of the commands that run many jobs on dask (study, tune-fleet).
+WorkersOption = Annotated[
+    int | None, typer.Option("--workers", help="Local worker processes (default: cores).")
+]
+SchedulerOption = Annotated[
+    str | None, typer.Option("--scheduler", help="Address of a running dask scheduler.")
+]
+
+
+@contextlib.contextmanager
+def batch_bar(
+    name: str, as_json: bool, line: Callable[[str], str | None]
+) -> Iterator[Callable[[int, int, str], None]]:
+    """A progress bar on stderr for a batch of jobs; yields its ``(done, total, message)``
+    callback. ``line(message)`` gives the (rich markup) line to print for a message, or None;
+    nothing is printed with ``--json``, and into a file or pipe the bar is off too."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=err,
+        transient=as_json,
+        disable=as_json and not err.is_terminal,  # --json into a file or pipe: errors only
+    ) as bar:
+        task = bar.add_task(name, total=None)
+
+        def progress(done: int, total: int, message: str) -> None:
+            bar.update(task, completed=done, total=total, description=message[:60])
+            shown = line(message)
+            if shown is not None and not as_json:
+                err.print(shown, highlight=False)
+
+        yield progress
 
 
 class Interrupted(KeyboardInterrupt):

@@ -8,7 +8,15 @@ from typing import Annotated
 
 import typer
 
-from sysid_core.cli_app import JsonOption, OutDirOption, command, err, out
+from sysid_core.cli_app import (
+    JsonOption,
+    OutDirOption,
+    SchedulerOption,
+    WorkersOption,
+    batch_bar,
+    command,
+    out,
+)
 
 
 @command("tune-fleet")
@@ -20,12 +28,8 @@ def tune_fleet_cmd(
         bool,
         typer.Option("--resume", help="Keep converged gyros; continue the others from disk."),
     ] = False,
-    workers: Annotated[
-        int | None, typer.Option("--workers", help="Local worker processes (default: cores).")
-    ] = None,
-    scheduler: Annotated[
-        str | None, typer.Option("--scheduler", help="Address of a running dask scheduler.")
-    ] = None,
+    workers: WorkersOption = None,
+    scheduler: SchedulerOption = None,
     no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip each gyro's plots.")] = False,
 ) -> None:
     """Tune every gyro of a fleet file, each in its own run folder, on dask.
@@ -34,29 +38,14 @@ def tune_fleet_cmd(
     Writes OUT/fleet.json and OUT/fleet.md (the table of all). Exits 0 only when every gyro
     converged; otherwise 1, naming the gyros that did not (run again with --resume).
     """
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.markup import escape
 
     from sysid_core.errors import RunsFailedError
     from sysid_core.fleet import check_fleet, run_fleet
 
     target = out_dir or Path("runs") / fleet.stem
     check_fleet(fleet, target, resume)  # refuse a bad fleet file before showing progress
-    with Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        console=err,
-        transient=as_json,
-        disable=as_json and not err.is_terminal,
-    ) as bar:
-        task = bar.add_task("fleet", total=None)
-
-        def progress(done: int, total: int, message: str) -> None:
-            bar.update(task, completed=done, total=total, description=message[:60])
-            if not as_json:
-                err.print(message, highlight=False)
-
+    with batch_bar("fleet", as_json, escape) as progress:
         results = run_fleet(fleet, target, resume, workers, scheduler, progress, plots=not no_plots)
     bad = [r for r in results if r.get("error") or not r.get("converged")]
     if as_json:

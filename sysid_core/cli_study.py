@@ -8,7 +8,15 @@ from typing import Annotated
 
 import typer
 
-from sysid_core.cli_app import JsonOption, OutDirOption, command, err, out
+from sysid_core.cli_app import (
+    JsonOption,
+    OutDirOption,
+    SchedulerOption,
+    WorkersOption,
+    batch_bar,
+    command,
+    out,
+)
 
 
 @command("study")
@@ -16,12 +24,8 @@ def study_cmd(
     config: Annotated[Path, typer.Argument(help="Study configuration (TOML with a study table).")],
     out_dir: OutDirOption = None,
     as_json: JsonOption = False,
-    workers: Annotated[
-        int | None, typer.Option("--workers", help="Local worker processes (default: cores).")
-    ] = None,
-    scheduler: Annotated[
-        str | None, typer.Option("--scheduler", help="Address of a running dask scheduler.")
-    ] = None,
+    workers: WorkersOption = None,
+    scheduler: SchedulerOption = None,
     executor: Annotated[
         str, typer.Option("--executor", help="dask (default) or local (in this process).")
     ] = "dask",
@@ -36,7 +40,7 @@ def study_cmd(
     import shlex
     import sys
 
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.markup import escape
 
     from sysid_core.errors import ConfigError, RunsFailedError
     from sysid_core.study import failure_message, load_study_config, plan_study, run_study
@@ -47,22 +51,9 @@ def study_cmd(
     target = out_dir or Path("runs") / config.stem
     plan = plan_study(cfg, target)  # refuse a bad study before showing progress
     invocation = "sysid " + " ".join(shlex.quote(a) for a in sys.argv[1:])
-    with Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        console=err,
-        transient=as_json,
-        disable=as_json and not err.is_terminal,  # --json into a file or pipe: errors only
-    ) as bar:
-        task = bar.add_task("study", total=None)
-
-        def progress(done: int, total: int, message: str) -> None:
-            bar.update(task, completed=done, total=total, description=message[:60])
-            if "failed" in message and not as_json:
-                err.print(f"[yellow]{message}[/]")
-
+    with batch_bar(
+        "study", as_json, lambda m: f"[yellow]{escape(m)}[/]" if "failed" in m else None
+    ) as progress:
         full = run_study(
             cfg,
             target,
