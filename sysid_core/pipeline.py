@@ -49,7 +49,7 @@ from sysid_core.data import (
     experiment_from_measurement,
 )
 from sysid_core.device import Device, ReportsProgress
-from sysid_core.errors import ConfigError, FitWarning, UnreachableTuningError
+from sysid_core.errors import ConfigError, DeviceError, FitWarning, UnreachableTuningError
 from sysid_core.evidence import WindowAssessment, assess_window
 from sysid_core.fit import fit
 from sysid_core.io import write_json
@@ -140,6 +140,7 @@ class TuningRun:
         # Every component is built now, from this run's registry, so that a bad option fails
         # before anything is measured; the fits and the criterion use these very objects.
         parts = build_components(config, self.registry, device)
+        self.owns_device = device is None
         self.structure, self.objective = parts.structure, parts.objective
         self.solver, self.criterion = parts.solver, parts.criterion
         self.device = GuardedDevice(parts.device, config.device.name, config.experiment.timeout_s)
@@ -445,9 +446,37 @@ class TuningRun:
         """
         self.folder.acquire(self.resume, self.config.model_dump(mode="json"))
         try:
-            return self._loop()
+            summary = self._loop()
+        except BaseException:  # a failure or Ctrl-C: the bench is made safe, the error stands
+            self._close_device(failing=True)
+            raise
         finally:
             self.folder.release()
+        self._close_device(failing=False)
+        return summary
+
+    def _close_device(self, failing: bool) -> None:
+        """Call the device's optional ``close()`` when the run ends (made safe, released).
+
+        Only a device the run built from the configuration is closed (one passed in as
+        ``device`` belongs to the caller). When the run is failing anyway, a failed close is
+        a progress note and the run's own error is what is raised; when the run succeeded, a
+        failed close is a :class:`~sysid_core.errors.DeviceError`: the bench may not be safe.
+        """
+        close = getattr(self.device.device, "close", None)
+        if not self.owns_device or not callable(close):
+            return
+        try:
+            close()
+        except Exception as exc:
+            message = (
+                f"device {self.config.device.name!r} could not be closed (made safe): "
+                f"{type(exc).__name__}: {exc}"
+            )
+            if failing:
+                self.say(f"note: {message}")
+                return
+            raise DeviceError(message) from exc
 
     def _loop(self) -> RunSummary:
         cfg = self.config.tuning
