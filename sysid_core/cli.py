@@ -15,13 +15,23 @@ from sysid_core import (  # noqa: F401 - register commands
     cli_data,
     cli_fit,
     cli_fleet,
+    cli_instruments,
     cli_study,
     cli_tune,
 )
 from sysid_core.cli_app import app, failure
 
 #: The order of ``sysid --help``: the main job first.
-COMMAND_ORDER = ("tune", "tune-fleet", "fit", "import", "export", "study", "plugins")
+COMMAND_ORDER = (
+    "tune",
+    "tune-fleet",
+    "fit",
+    "import",
+    "export",
+    "study",
+    "instrument-sim",
+    "plugins",
+)
 app.registered_commands.sort(
     key=lambda c: COMMAND_ORDER.index(c.name) if c.name in COMMAND_ORDER else len(COMMAND_ORDER)
 )
