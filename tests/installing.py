@@ -105,3 +105,15 @@ def environment() -> dict[str, str]:
     if _ROOT is not None:
         env["PYTHONPATH"] = os.pathsep.join([str(_ROOT), *filter(None, [env.get("PYTHONPATH")])])
     return env
+
+
+def default_sigint() -> None:
+    """``preexec_fn`` for a child that a test interrupts with SIGINT: Ctrl-C's default action.
+
+    A process started in the background by a non-interactive shell (a CI runner's job) has
+    SIGINT ignored, and its children inherit that: Python then installs no KeyboardInterrupt
+    handler and the test's SIGINT would do nothing.
+    """
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)

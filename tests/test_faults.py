@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import pytest
 import xarray as xr
-from installing import environment
+from installing import default_sigint, environment
 from truths import write_toml
 
 from sysid_core.cli import main
@@ -92,6 +92,7 @@ def start(args: list[str], **kw: Any) -> subprocess.Popen[str]:
         stderr=subprocess.PIPE,
         text=True,
         env=environment(),
+        preexec_fn=default_sigint,  # SIGINT must reach it even if this runs in the background
         **kw,
     )
 

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from installing import environment
+from installing import default_sigint, environment
 
 from sysid_core.config import parse_config
 from sysid_core.errors import ConfigError, DeviceError
@@ -132,6 +132,7 @@ def sysid(*args: str, **kw: Any) -> subprocess.Popen[str]:
         stderr=subprocess.PIPE,
         text=True,
         env=environment(),
+        preexec_fn=default_sigint,  # SIGINT must reach it even if this runs in the background
         **kw,
     )
 
@@ -286,3 +287,24 @@ def test_the_simulator_refuses_a_port_in_use() -> None:
         )
     assert proc.returncode == 1
     assert re.fullmatch(r"sysid: error: cannot listen on .*choose other ports\n", proc.stderr)
+
+
+def test_an_instrument_error_is_a_one_line_device_error(sim: Sim, tmp_path: Path) -> None:
+    """The analyzer does not know a parameter: its SYST:ERR? message stops the run."""
+    from sysid_visa.profiles import SHIPPED
+
+    mine = tmp_path / "mine.toml"
+    mine.write_text((SHIPPED / "keysight-ena.toml").read_text().replace('"S42"', '"S99"'))
+    cfg = parse_config(
+        {
+            "device": visa_device(sim.ports, analyzer_profile=str(mine)),
+            "tuning": TUNING,
+            "experiment": EXPERIMENT,
+        }
+    )
+    with pytest.raises(
+        DeviceError, match=r"the analyzer reports '-224,\"Illegal parameter value\"'"
+    ):
+        TuningRun(cfg, tmp_path / "run", plots=False).run()
+    volts, on = source_state(sim.ports[1])
+    assert on == [False, False, False] and volts == [0.0, 0.0, 0.0]  # closed: made safe

@@ -307,7 +307,10 @@ class VisaDevice:
         for i, j in ((0, 0), (0, 1), (1, 0), (1, 1)):
             pair = {"output": f"y{i + 1}", "input": f"u{j + 1}"}
             parameter = self.aprof.pairs[f"y{i + 1}/u{j + 1}"]
-            for command in [*c.select, *c.trigger]:
+            for command in c.select:
+                self._write("analyzer", command.format(parameter=parameter, **pair))
+            self._errors("analyzer", c.select[-1].format(parameter=parameter, **pair))
+            for command in c.trigger:
                 self._write("analyzer", command.format(parameter=parameter, **pair))
             self._query("analyzer", c.wait)
             text = self._query("analyzer", c.read)
