@@ -309,7 +309,8 @@ class VisaDevice:
             parameter = self.aprof.pairs[f"y{i + 1}/u{j + 1}"]
             for command in c.select:
                 self._write("analyzer", command.format(parameter=parameter, **pair))
-            self._errors("analyzer", c.select[-1].format(parameter=parameter, **pair))
+            if c.select:
+                self._errors("analyzer", c.select[-1].format(parameter=parameter, **pair))
             for command in c.trigger:
                 self._write("analyzer", command.format(parameter=parameter, **pair))
             self._query("analyzer", c.wait)
