@@ -55,9 +55,18 @@ def instrument_sim_cmd(
                 f"--readback-error must be CHANNEL:VOLTS (e.g. 2:0.05), got {readback_error!r}"
             ) from None
     options = {} if seed is None else {"seed": seed}
-    dev = get_registry().device(device, **options)
+    try:
+        dev = get_registry().device(device, **options)
+    except TypeError as exc:  # a bench device, whose options (dir, resources...) are missing
+        raise ConfigError(
+            f"device {device!r} cannot back the simulated instruments ({exc}); name a simulated "
+            "device such as cloverleaf or random-gyro"
+        ) from None
     if not hasattr(dev, "true_modal_frequencies_hz"):
-        raise ConfigError(f"device {device!r} is not a simulated device; name one that is")
+        raise ConfigError(
+            f"device {device!r} is not a simulated device; name one such as cloverleaf or "
+            "random-gyro"
+        )
     try:
         sim = InstrumentSim(dev, analyzer_port, source_port, dwell_ms, fault)
     except OSError as exc:
