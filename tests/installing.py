@@ -19,6 +19,7 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -117,3 +118,17 @@ def default_sigint() -> None:
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def start_sysid(*args: str, **kw: Any) -> subprocess.Popen[str]:
+    """``python -m sysid_core.cli ARGS`` in the background with pipes, this environment, and
+    SIGINT's default action (so a test can interrupt it)."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "sysid_core.cli", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=environment(),
+        preexec_fn=default_sigint,
+        **kw,
+    )

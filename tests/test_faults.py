@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import pytest
 import xarray as xr
-from installing import default_sigint, environment
+from installing import environment, start_sysid
 from truths import write_toml
 
 from sysid_core.cli import main
@@ -86,15 +86,7 @@ def one_error_line(stderr: str) -> str:
 
 
 def start(args: list[str], **kw: Any) -> subprocess.Popen[str]:
-    return subprocess.Popen(
-        [sys.executable, "-m", "sysid_core.cli", *args],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=environment(),
-        preexec_fn=default_sigint,  # SIGINT must reach it even if this runs in the background
-        **kw,
-    )
+    return start_sysid(*args, **kw)  # SIGINT reaches it even if this runs in the background
 
 
 def wait_for(path: Path, proc: subprocess.Popen[str], timeout: float = 60) -> None:

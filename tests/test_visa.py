@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from installing import default_sigint, environment
+from installing import environment, start_sysid
 
 from sysid_core.config import parse_config
 from sysid_core.errors import ConfigError, DeviceError
@@ -125,16 +125,8 @@ def write_config(path: Path, device: dict[str, Any]) -> Path:
     return path
 
 
-def sysid(*args: str, **kw: Any) -> subprocess.Popen[str]:
-    return subprocess.Popen(
-        [sys.executable, "-m", "sysid_core.cli", *args],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=environment(),
-        preexec_fn=default_sigint,  # SIGINT must reach it even if this runs in the background
-        **kw,
-    )
+def sysid(*args: str) -> subprocess.Popen[str]:
+    return start_sysid(*args)
 
 
 def wait_for_files(folder: Path, n: int, timeout: float = 60.0) -> None:

@@ -58,13 +58,18 @@ def _check(templates: dict[str, list[str]], allowed: dict[str, set[str]]) -> Non
                 raise ValueError(f"command {key} = {text!r} uses {{{used}}}; its fields: {known}")
 
 
-class AnalyzerCommands(_Strict):
-    """An analyzer's SCPI commands (templates)."""
+class _Commands(_Strict):
+    """What both kinds have: identification, the error queue, setup commands."""
 
     identify: str = "*IDN?"
     error: str = "SYST:ERR?"
     no_error: str = r"^\s*[+-]?0\s*,"
     setup: list[str] = Field(default_factory=list)
+
+
+class AnalyzerCommands(_Commands):
+    """An analyzer's SCPI commands (templates)."""
+
     frequencies: str
     segment: str = "{frequency_hz}"
     select: list[str]
@@ -109,13 +114,9 @@ class AnalyzerProfile(_Strict):
         return self
 
 
-class SourceCommands(_Strict):
+class SourceCommands(_Commands):
     """A bias source's SCPI commands (templates)."""
 
-    identify: str = "*IDN?"
-    error: str = "SYST:ERR?"
-    no_error: str = r"^\s*[+-]?0\s*,"
-    setup: list[str] = Field(default_factory=list)
     set: str
     measure: str
     output_on: str
