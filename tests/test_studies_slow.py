@@ -18,7 +18,7 @@ def _small(tmp_path: Path, name: str, study: dict[str, object]) -> Path:
     """The example study ``name`` with ``study`` replacing some of its ``[study]`` keys."""
     data = tomllib.loads((ROOT / "examples" / name).read_text())
     data["study"].update(study)
-    return write_toml(tmp_path / name, data)
+    return write_toml(tmp_path / name.replace("/", "-"), data)
 
 
 @pytest.mark.slow
@@ -47,3 +47,24 @@ def test_small_random_gyro_studies(tmp_path: Path, name: str) -> None:
     per_it = full["summary"]["least-squares"]["auto"]
     assert per_it["3"]["runs"] == 6
     assert per_it["3"]["split_percentiles_hz"]["100"] < per_it["1"]["split_percentiles_hz"]["10"]
+
+
+@pytest.mark.slow
+def test_small_bench_time_comparison(tmp_path: Path) -> None:
+    """Four far starts with the full and the lean protocol (docs/bench-time.md): the lean one
+    reaches 1 mHz on every start with fewer points."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import bench_time
+
+    folders = []
+    for name in ("full", "lean"):
+        cfg = load_study_config(_small(tmp_path, f"bench-time/{name}.toml", {"grid": [-9, 9]}))
+        out = tmp_path / name
+        assert run_study(cfg, out, executor="local", plots=False)["failed"] == 0
+        folders.append(out)
+    rows, _ = bench_time.summarize(folders, "full", 1e-3)
+    full, lean = rows
+    assert lean["reached"] == lean["runs"] == 4 and lean["worse_than_reference"] == 0
+    assert lean["max_points"] < full["median_points"]
