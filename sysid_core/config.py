@@ -177,8 +177,9 @@ class ExperimentConfig(_Strict):
     (:mod:`sysid_core.lean`): the whole band only to locate the modes (at most 61 points),
     every other sweep only around where the modes are known or predicted to be, and every sweep
     of the run reused by later fits; iterations after the first measure nothing but the
-    verification unless a model of all sweeps fails to explain it (then the local design
-    around the bias). ``"full"``: every iteration measures its whole design over the band (the
+    verification while it agrees with the model (inside the predicted 95 % range, and
+    reproduced by the model of all sweeps); otherwise the sweeps near the bias, with the local
+    design there. ``"full"``: every iteration measures its whole design over the band (the
     first) or ``refine_span_hz`` (later) at the configured resolutions, as the paper does.
     Measured on the cloverleaf (49 starts, ``docs/bench-time.md``): to a true split of 1 mHz,
     lean needs a median of under 200 points against about 1400.

@@ -162,10 +162,10 @@ def mode_grid(guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
     """The points of a sweep around two modes whose frequencies are (roughly) known.
 
     Around each mode ``±h`` with ``h = CORE_BANDWIDTHS·bw + 2σ``, at a step of
-    ``bw / POINTS_PER_BANDWIDTH`` or ``h / MAX_HALF_POINTS``, whichever is coarser; then
-    :data:`ANCHORS` points spread outside the modes' grids to ``max(refine_span_hz/2, 2 × the
-    grids' extent)`` on either side. Everything inside the plan's band; never fewer than
-    :data:`~sysid_core.sweeps.MIN_POINTS` points (the step is refined until there are).
+    ``bw / POINTS_PER_BANDWIDTH`` or ``h / MAX_HALF_POINTS``, whichever is coarser; then the
+    :data:`ANCHORS` far points of :func:`anchors`. Everything inside the plan's band; never
+    fewer than :data:`~sysid_core.sweeps.MIN_POINTS` points (the step is refined until there
+    are).
     """
     band = plan.band_hz
     f, bw, s = guess.frequencies_hz, guess.bandwidth_hz, guess.uncertainty_hz

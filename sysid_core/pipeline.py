@@ -55,6 +55,7 @@ from sysid_core.fit import fit
 from sysid_core.io import write_json
 from sysid_core.knowledge import Knowledge
 from sysid_core.lean import (
+    EXPLAIN_FLOOR_HZ,
     LOCAL_RADIUS,
     LOCATE_POINTS,
     ModeGuess,
@@ -167,6 +168,8 @@ class TuningRun:
         self.known = Knowledge(self.space.tuned, self.space.structure_potential)
         self.last_verified: tuple[np.ndarray, np.ndarray] | None = None
         self.moved = False  # the last answer was a move to the best reachable bias
+        self.local = False  # a lean run that fits only the sweeps near its bias
+        self.last_region: ConfidenceRegion | None = None
         self.locate_plan = locate_plan(self.plan)
         self.notes: list[str] = []
 
@@ -251,6 +254,26 @@ class TuningRun:
         model.save(folder / "model.nc")
         return ds, model
 
+    def _prediction_missed(self) -> str | None:
+        """Why the last prediction does not stand (the law holds only locally), or None."""
+        if self.last_verified is None:
+            return None
+        vb, vf = self.last_verified
+        split = float(vf[1] - vf[0])
+        region = self.last_region
+        if region is not None and split > region.split_ci_hz[1] + EXPLAIN_FLOOR_HZ:
+            lo, hi = region.split_ci_hz
+            return (
+                f"the verified split {split * 1e3:.3g} mHz is outside the predicted 95 % range "
+                f"{lo * 1e3:.3g}-{hi * 1e3:.3g} mHz"
+            )
+        union = self._quiet_fit(self.known.union())
+        gap = explained_gap(union.modal(vb[self.space.index]).frequencies_hz, vf)
+        if gap is None:
+            return None
+        n = len(self.known)
+        return f"a model of all {n} sweeps misses the verified modes by {gap * 1e3:.3g} mHz"
+
     def _quiet_fit(self, ds: xr.Dataset, structure: ModelStructure | None = None) -> FittedModel:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", FitWarning)
@@ -260,30 +283,25 @@ class TuningRun:
         """The data a lean run fits in iteration ``it`` (see :mod:`sysid_core.knowledge`).
 
         Iteration 1 measures the design of eq. (18) where the modes should be. Later ones fit
-        every sweep so far; if that model does not explain the last verification (a stiffness
-        law that holds only locally), the sweeps near ``bias`` are fitted instead, after
-        measuring the local design there if they do not meet the rank condition.
+        every sweep so far while the last verification agrees with the model: its split inside
+        the predicted 95 % range, and the model of all sweeps reproducing the verified modes
+        (:func:`~sysid_core.lean.explained_gap`). Once it does not (a stiffness law that holds
+        only locally), the run fits the sweeps near the bias from then on, measuring the local
+        design wherever they do not meet the rank condition.
         """
-        tuned = self.space.index
         if it > 1 and self.moved:
+            self.local = True
             self.say(
                 f"iteration {it}: the run moved to the best reachable bias; measuring the local "
                 "design there"
             )
-        elif it > 1:
-            union = self.known.union()
-            if self.last_verified is None:
+        elif it > 1 and not self.local:
+            why = self._prediction_missed()
+            if why is None:
                 self.say(f"iteration {it}: fitting all {len(self.known)} sweeps so far")
-                return union
-            vb, vf = self.last_verified
-            gap = explained_gap(self._quiet_fit(union).modal(vb[tuned]).frequencies_hz, vf)
-            if gap is None:
-                self.say(f"iteration {it}: fitting all {len(self.known)} sweeps so far")
-                return union
-            self.say(
-                f"iteration {it}: a model of all {len(self.known)} sweeps misses the last "
-                f"verified modes by {gap * 1e3:.3g} mHz; fitting the sweeps near the bias"
-            )
+                return self.known.union()
+            self.local = True
+            self.say(f"iteration {it}: {why}; fitting the sweeps near the bias from now on")
         radius = LOCAL_RADIUS * self._step(it)
         if it == 1 or not self.known.meets_rank(bias, radius, self.config.model.stiffness):
             for j, b in enumerate(self._design(bias, it)):
@@ -616,6 +634,7 @@ class TuningRun:
             # they were found, over the whole band if not.
             if ver.verified and ver.frequencies_hz is not None:
                 self.last_verified = (bias.copy(), np.asarray(ver.frequencies_hz, dtype=float))
+                self.last_region = result.confidence
             if ver.frequencies_hz is not None:
                 center, split = ver.frequency_hz, float(ver.split_hz or 0.0)
             else:

@@ -182,7 +182,7 @@ def test_a_law_that_holds_only_locally_gets_a_local_design(tmp_path: Path) -> No
     )
     messages: list[str] = []
     summary = TuningRun(cfg, tmp_path, plots=False, progress=messages.append).run()
-    local = [m for m in messages if "misses the last verified modes" in m]
+    local = [m for m in messages if "fitting the sweeps near the bias from now on" in m]
     assert local
     later = [
         r.iteration
