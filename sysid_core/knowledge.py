@@ -4,9 +4,10 @@ A lean run (``[experiment] protocol = "lean"``) never throws a measurement away:
 iteration uses the union of every sweep of the run (identification sweeps, verification
 windows, whole-band sweeps), which meets the rank condition (6) as soon as the biases of all
 of them together do, or, once a verification has shown that the stiffness law holds only
-locally, the sweeps near the bias (:meth:`Knowledge.near`). Each sweep also left its own estimate of the modes at its bias (from the
-single-bias fit that judged its evidence); :meth:`Knowledge.guess` turns these and a model of
-the union into a :class:`~sysid_core.lean.ModeGuess` for a bias not measured yet.
+locally, the sweeps near the bias (:meth:`Knowledge.near`). Each sweep also left its own
+estimate of the modes at its bias (from the single-bias fit that judged its evidence);
+:meth:`Knowledge.guess` turns these and a model of the union into a
+:class:`~sysid_core.lean.ModeGuess` for a bias not measured yet.
 """
 
 from __future__ import annotations
