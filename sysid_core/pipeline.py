@@ -169,6 +169,8 @@ class TuningRun:
         self.last_verified: tuple[np.ndarray, np.ndarray] | None = None
         self.moved = False  # the last answer was a move to the best reachable bias
         self.local = False  # a lean run that fits only the sweeps near its bias
+        # the union's fit made to judge the last verification, reused as the iteration's fit
+        self._prefit: tuple[xr.Dataset, FittedModel, list[warnings.WarningMessage]] | None = None
         self.last_region: ConfidenceRegion | None = None
         self.locate_plan = locate_plan(self.plan)
         self.notes: list[str] = []
@@ -232,9 +234,8 @@ class TuningRun:
             self.say(
                 f"iteration {it}: fitting {self.structure.name} model to {len(design)} experiments"
             )
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", FitWarning)
-            model = self._fit(ds)
+        pre, self._prefit = self._prefit, None
+        model, caught = pre[1:] if pre is not None and pre[0] is ds else self._fit_recorded(ds)
         for w in caught:
             if issubclass(w.category, FitWarning):  # a note of this run, not a user warning
                 self.notes.append(f"iteration {it}: {w.message}")
@@ -267,12 +268,22 @@ class TuningRun:
                 f"the verified split {split * 1e3:.3g} mHz is outside the predicted 95 % range "
                 f"{lo * 1e3:.3g}-{hi * 1e3:.3g} mHz"
             )
-        union = self._quiet_fit(self.known.union())
-        gap = explained_gap(union.modal(vb[self.space.index]).frequencies_hz, vf)
+        union = self.known.union()
+        model, caught = self._fit_recorded(union)
+        self._prefit = (union, model, caught)  # the iteration's fit, if the union stands
+        gap = explained_gap(model.modal(vb[self.space.index]).frequencies_hz, vf)
         if gap is None:
             return None
+        self._prefit = None
         n = len(self.known)
         return f"a model of all {n} sweeps misses the verified modes by {gap * 1e3:.3g} mHz"
+
+    def _fit_recorded(self, ds: xr.Dataset) -> tuple[FittedModel, list[warnings.WarningMessage]]:
+        """Fit ``ds``; return the model and the warnings the fit raised (kept, not shown)."""
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", FitWarning)
+            model = self._fit(ds)
+        return model, list(caught)
 
     def _quiet_fit(self, ds: xr.Dataset, structure: ModelStructure | None = None) -> FittedModel:
         with warnings.catch_warnings():
@@ -299,7 +310,7 @@ class TuningRun:
             why = self._prediction_missed()
             if why is None:
                 self.say(f"iteration {it}: fitting all {len(self.known)} sweeps so far")
-                return self.known.union()
+                return self._prefit[0] if self._prefit is not None else self.known.union()
             self.local = True
             self.say(f"iteration {it}: {why}; fitting the sweeps near the bias from now on")
         radius = LOCAL_RADIUS * self._step(it)
