@@ -135,39 +135,36 @@ class InstrumentSim:
             return np.asarray(method(volts), dtype=float)
         return volts
 
+    def _channel(self, text: str) -> int | None:
+        """Index of channel ``text`` (1-based), or None with ``-222`` queued if out of range."""
+        ch = int(text)
+        if 1 <= ch <= self.n:
+            return ch - 1
+        self.errors["source"].append('-222,"Data out of range"')
+        return None
+
     def _source(self, line: str) -> str | None:
         with self.lock:
-            m = re.fullmatch(rf"VOLT\s+{_NUMBER}\s*,\s*\(@(\d+)\)", line, re.IGNORECASE)
-            if m:
-                ch = int(m.group(2))
-                if not 1 <= ch <= self.n:
-                    self.errors["source"].append('-222,"Data out of range"')
-                    return None
-                target = self.volts.copy()
-                target[ch - 1] = float(m.group(1))
-                self.volts[ch - 1] = self._applied(target)[ch - 1]
+            if m := re.fullmatch(rf"VOLT\s+{_NUMBER}\s*,\s*\(@(\d+)\)", line, re.IGNORECASE):
+                if (p := self._channel(m.group(2))) is not None:
+                    target = self.volts.copy()
+                    target[p] = float(m.group(1))
+                    self.volts[p] = self._applied(target)[p]
                 return None
-            m = re.fullmatch(r"MEAS:VOLT\?\s*\(@(\d+)\)", line, re.IGNORECASE)
-            if m:
-                ch = int(m.group(1))
-                if not 1 <= ch <= self.n:
-                    self.errors["source"].append('-222,"Data out of range"')
+            if m := re.fullmatch(r"MEAS:VOLT\?\s*\(@(\d+)\)", line, re.IGNORECASE):
+                if (p := self._channel(m.group(1))) is None:
                     return "0"
-                value = self.volts[ch - 1] if self.on[ch - 1] else 0.0
-                if self.readback_error is not None and self.readback_error[0] == ch:
+                value = self.volts[p] if self.on[p] else 0.0
+                if self.readback_error is not None and self.readback_error[0] == p + 1:
                     value += self.readback_error[1]
                 return f"{value:+.6E}"
-            m = re.fullmatch(r"OUTP\s+(ON|OFF|1|0)\s*,\s*\(@(\d+)\)", line, re.IGNORECASE)
-            if m:
-                ch = int(m.group(2))
-                if not 1 <= ch <= self.n:
-                    self.errors["source"].append('-222,"Data out of range"')
-                    return None
-                self.on[ch - 1] = m.group(1).upper() in ("ON", "1")
+            if m := re.fullmatch(r"OUTP\s+(ON|OFF|1|0)\s*,\s*\(@(\d+)\)", line, re.IGNORECASE):
+                if (p := self._channel(m.group(2))) is not None:
+                    self.on[p] = m.group(1).upper() in ("ON", "1")
                 return None
-            m = re.fullmatch(r"OUTP\?\s*\(@(\d+)\)", line, re.IGNORECASE)
-            if m:
-                return "1" if self.on[int(m.group(1)) - 1] else "0"
+            if m := re.fullmatch(r"OUTP\?\s*\(@(\d+)\)", line, re.IGNORECASE):
+                p = self._channel(m.group(1))
+                return "1" if p is not None and self.on[p] else "0"
             return self._common("source", line)
 
     # ------------------------------------------------------------------ the analyzer
