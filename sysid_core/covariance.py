@@ -150,16 +150,17 @@ def stiffness_map(problem: FitProblem) -> np.ndarray:
     t[0:3, lay.M] = eye
     t[3:6, lay.M] = s.omega0**2 * eye
     t[3:6, lay.D] = s.omega0**2 * s.eps * eye
+    kappa = s.omega0**2 * s.eps
+    lin, quad = s.w_polynomials()
     for p in range(n_e):
-        kp = s.omega0**2 * s.eps / s.w_scale[p] * eye
-        t[6 + 3 * p : 9 + 3 * p, lay.K(p)] = kp
-        t[3:6, lay.K(p)] -= s.w_center[p] * kp
+        t[3:6, lay.K(p)] = kappa * lin[p, 0] * eye
+        t[6 + 3 * p : 9 + 3 * p, lay.K(p)] = kappa * lin[p, 1] * eye
     if lay.quadratic:
-        assert s.q_center is not None and s.q_scale is not None
+        assert quad is not None
         for p in range(n_e):
-            lp = s.omega0**2 * s.eps / s.q_scale[p] * eye
-            t[6 + 3 * n_e + 3 * p : 9 + 3 * n_e + 3 * p, lay.L(p)] = lp
-            t[3:6, lay.L(p)] -= s.q_center[p] * lp
+            t[3:6, lay.L(p)] = kappa * quad[p, 0] * eye
+            t[6 + 3 * p : 9 + 3 * p, lay.L(p)] = kappa * quad[p, 1] * eye
+            t[6 + 3 * n_e + 3 * p : 9 + 3 * n_e + 3 * p, lay.L(p)] = kappa * quad[p, 2] * eye
     return t
 
 

@@ -21,7 +21,7 @@ from sysid_core.config import DEFAULT_BIAS_TERMS, DEFAULT_OBJECTIVE, DEFAULT_ORD
 from sysid_core.conic import Solver
 from sysid_core.data import measured_mask, read_netcdf
 from sysid_core.errors import DataError, FitWarning, RankConditionError, TooFewExperimentsError
-from sysid_core.model import FittedModel, model_from_dataset, model_from_problem
+from sysid_core.model import FittedModel, model_from_dataset, model_from_problem, unit_mass
 from sysid_core.objective import Objective, Progress
 from sysid_core.options import accepted_options
 from sysid_core.problem import FitProblem
@@ -163,7 +163,18 @@ def fit(
         model = _fit_one(dataset, structure, objective, solver, progress)
     for message in check_fit(dataset, model):
         warnings.warn(message, FitWarning, stacklevel=2)
+    if model.meta.get("law_fallback"):
+        warnings.warn(str(model.meta["law_test"]), FitWarning, stacklevel=2)
     return model
+
+
+#: The quadratic law is not identified by a design whose normal matrix, in the plain centred
+#: basis ``x, x² − mean(x²)``, has a larger condition number
+#: (:meth:`~sysid_core.problem.FitProblem.normal_condition`): the solver's relative accuracy of
+#: about 1e-8 then becomes more than 1e-3 of ``L_p`` (the error grows as the square root of
+#: the condition). Measured: a two-sided design has 8; one whose two levels of an electrode
+#: differ by 1e-4 of the step, 1e8; by 1e-6, 1e12.
+LAW_CONDITION_LIMIT = 1e10
 
 
 def _fit_one(
@@ -173,12 +184,38 @@ def _fit_one(
     solver: Solver,
     progress: Progress | None,
 ) -> FittedModel:
+    """Fit ``structure`` to ``dataset``; a quadratic law the design does not identify (see
+    :data:`LAW_CONDITION_LIMIT`) falls back to the linear law, saying so in ``progress``, in
+    ``meta["law_test"]`` and as a :class:`FitWarning` (from :func:`fit`)."""
     t0 = time.perf_counter()
+    facts: dict[str, object] = {}
     with threadpool_limits(limits=1, user_api="blas"):
         problem = FitProblem(dataset, structure)
+        if problem.layout.quadratic:
+            law_condition = problem.normal_condition(law_basis=True)
+            facts["law_condition"] = law_condition
+            if not law_condition <= LAW_CONDITION_LIMIT:
+                linear = copy.copy(structure)
+                linear.stiffness = "linear"
+                problem = FitProblem(dataset, linear)
+                facts.update(
+                    stiffness_law="linear",
+                    law_fallback=True,
+                    law_test=(
+                        f"quadratic law not identified by this design (normal matrix condition "
+                        f"{law_condition:.3g} > {LAW_CONDITION_LIMIT:.0e}): fitted the linear "
+                        "law; step each electrode to two levels clearly apart"
+                    ),
+                )
+                if progress is not None:
+                    progress(str(facts["law_test"]))
+        facts["normal_condition"] = problem.normal_condition()
         result = objective.fit(problem, solver, progress)
     elapsed = time.perf_counter() - t0
-    return model_from_problem(problem, result, solver=solver.name, fit_time_s=elapsed)
+    result, mass_factor = unit_mass(problem, result)
+    if mass_factor is not None:
+        facts["mass_normalised"] = mass_factor
+    return model_from_problem(problem, result, solver=solver.name, fit_time_s=elapsed, **facts)
 
 
 #: Confidence level of the test that keeps the quadratic stiffness law (``stiffness = "auto"``).
@@ -231,6 +268,8 @@ def _fit_auto_law(
         model.meta.update(stiffness_law="linear", law_test="design does not identify L_p")
         return model
     quad = _fit_one(dataset, quadratic, objective, solver, progress)
+    if quad.meta.get("law_fallback"):
+        return quad
     found = law_statistic(quad)
     if found is not None:
         stat, dof = found

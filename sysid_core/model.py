@@ -459,12 +459,44 @@ def model_from_dataset(ds: xr.Dataset, structure: ModelStructure) -> FittedModel
     )
 
 
+#: A scaled solution whose ``λ_min(M)`` exceeds 1 by more than this is normalised.
+MASS_NORMALISE_TOL = 1e-9
+
+
+def unit_mass(problem: FitProblem, result: ObjectiveResult) -> tuple[ObjectiveResult, float | None]:
+    """``result`` scaled so that ``λ_min(M) = 1`` when it is larger, and the factor applied.
+
+    The equation error is linear in the unknowns, so ``α·theta`` fits exactly as well as
+    ``theta`` up to the factor ``α``: the constraint ``M ⪰ I`` fixes the scale only as an
+    inequality. A noisy fit's optimum has ``λ_min(M) = 1``; an exact one (noiseless data in the
+    model class) is a whole ray of optima, and the solver may stop anywhere on it (measured: 1.48
+    times the truth with one OpenBLAS kernel, the truth with another). Dividing every unknown
+    by ``λ = λ_min(M) > 1`` keeps ``M ⪰ I`` and ``K_p ⪯ 0``, divides every equation error (and
+    so γ) by ``λ`` and the covariance by ``λ²``.
+    """
+    lay = problem.layout
+    lam = float(np.linalg.eigvalsh(sym(result.theta[lay.M])).min())
+    if not np.isfinite(lam) or lam <= 1.0 + MASS_NORMALISE_TOL:
+        return result, None
+    return (
+        dataclasses.replace(
+            result,
+            theta=result.theta / lam,
+            gamma=result.gamma / lam,
+            max_residual=result.max_residual / lam,
+            covariance=None if result.covariance is None else result.covariance / lam**2,
+        ),
+        lam,
+    )
+
+
 def model_from_problem(problem: FitProblem, result: ObjectiveResult, **meta: object) -> FittedModel:
     """Map an objective's scaled solution of ``problem`` back to physical units.
 
     The inverse of the scaling of :mod:`sysid_core.problem`. The model's channel names are the
     data set's ``output`` and ``input`` coordinates; ``meta`` is added to the model's ``meta``
-    (e.g. the solver's name and the fit time).
+    (e.g. the solver's name and the fit time). The map is linear in ``result.theta``; a fit
+    normalises the scale first (:func:`unit_mass`).
     """
     self = problem
     coords = self.dataset.coords
@@ -477,21 +509,25 @@ def model_from_problem(problem: FitProblem, result: ObjectiveResult, **meta: obj
     s, lay, th = self.scaling, self.layout, result.theta
     m = sym(th[lay.M])
     c = s.omega0 * s.eps * sym(th[lay.C])
-    kp = np.array(
-        [s.omega0**2 * s.eps * sym(th[lay.K(p)]) / s.w_scale[p] for p in range(lay.n_electrodes)]
-    ).reshape(-1, 2, 2)
-    k_center = s.omega0**2 * (m + s.eps * sym(th[lay.D]))
-    k0 = k_center - np.tensordot(s.w_center, kp, axes=1) if len(kp) else k_center
+    # Z's stiffness is ω0²(M + ε(D~ + Σ w~_p K~_p + Σ φ_p L~_p)) with w~_p and φ_p polynomials
+    # in w_p (Scaling.w_polynomials): collect the coefficients of 1, w_p and w_p².
+    kappa = s.omega0**2 * s.eps
+    lin, quad = s.w_polynomials()
+    k_tilde = [sym(th[lay.K(p)]) for p in range(lay.n_electrodes)]
+    l_tilde = [sym(th[lay.L(p)]) for p in range(lay.n_electrodes)] if lay.quadratic else []
+    k0 = s.omega0**2 * (m + s.eps * sym(th[lay.D]))
+    kp = np.zeros((lay.n_electrodes, 2, 2))
+    for p in range(lay.n_electrodes):
+        k0 = k0 + kappa * lin[p, 0] * k_tilde[p]
+        kp[p] = kappa * lin[p, 1] * k_tilde[p]
     lp = None
     if lay.quadratic:
-        assert s.q_center is not None and s.q_scale is not None
-        lp = np.array(
-            [
-                s.omega0**2 * s.eps * sym(th[lay.L(p)]) / s.q_scale[p]
-                for p in range(lay.n_electrodes)
-            ]
-        ).reshape(-1, 2, 2)
-        k0 = k0 - np.tensordot(s.q_center, lp, axes=1)
+        assert quad is not None
+        lp = np.zeros((lay.n_electrodes, 2, 2))
+        for p in range(lay.n_electrodes):
+            k0 = k0 + kappa * quad[p, 0] * l_tilde[p]
+            kp[p] += kappa * quad[p, 1] * l_tilde[p]
+            lp[p] = kappa * quad[p, 2] * l_tilde[p]
 
     def coefficient(sl: slice) -> np.ndarray:
         return s.psi_scale * (th[sl][:4] + 1j * th[sl][4:]).reshape(2, 2)

@@ -139,7 +139,15 @@ class ParameterLayout:
 
 @dataclass(frozen=True)
 class Scaling:
-    """The constants that make the fit well conditioned (see the module docstring)."""
+    """The constants that make the fit well conditioned (see the module docstring).
+
+    With the quadratic stiffness law, electrode ``p``'s second regressor is not ``w_p²`` (whose
+    values over a design of a few volts are nearly proportional to ``w_p``'s) but the discrete
+    orthogonal polynomial ``φ_p = (x_p² − a_p − b_p x_p) / h_p`` in ``x_p = w~_p``: ``a_p, b_p``
+    make it orthogonal to ``1`` and ``x_p`` over the data points, ``h_p`` scales its largest
+    value to 1 (``q_basis[p] = (a_p, b_p, h_p)``). :meth:`w_polynomials` maps both regressors
+    back to polynomials in ``w``.
+    """
 
     omega0: float
     eps: float
@@ -147,13 +155,20 @@ class Scaling:
     w_center: np.ndarray
     w_scale: np.ndarray
     psi_scale: float
-    q_center: np.ndarray | None = None
-    q_scale: np.ndarray | None = None
+    q_basis: np.ndarray | None = None
 
     @classmethod
-    def from_data(cls, omega: np.ndarray, w: np.ndarray, psi: np.ndarray) -> Scaling:
+    def from_data(
+        cls,
+        omega: np.ndarray,
+        w: np.ndarray,
+        psi: np.ndarray,
+        experiment: np.ndarray | None = None,
+    ) -> Scaling:
         """Choose the scaling for frequencies ``omega`` (rad/s), squared potentials ``w``
-        ``(n_exp, n_e)`` and responses ``psi`` ``(N, 2, 2)``."""
+        ``(n_exp, n_e)`` and responses ``psi`` ``(N, 2, 2)``; ``experiment`` (``(N,)``, the
+        experiment of each point) weights each experiment by its points in the quadratic
+        basis (default: equal weights)."""
         omega0 = 0.5 * (omega.min() + omega.max())
         delta = (omega / omega0) ** 2 - 1
         eps = float(np.abs(delta).max())
@@ -164,11 +179,58 @@ class Scaling:
         psi_scale = float(np.median(sigma_max_2x2(psi))) * omega0**2 * eps
         if not np.isfinite(psi_scale) or psi_scale <= 0:
             psi_scale = 1.0
-        q = w**2
-        q_center = q.mean(axis=0)
-        q_spread = np.abs(q - q_center).max(axis=0)
-        q_scale = np.where(q_spread > 0, q_spread, 1.0)
-        return cls(float(omega0), eps, nu_half, w_center, w_scale, psi_scale, q_center, q_scale)
+        counts = (
+            np.ones(w.shape[0])
+            if experiment is None
+            else np.bincount(experiment, minlength=w.shape[0]).astype(float)
+        )
+        q_basis = _orthogonal_quadratic((w - w_center) / w_scale, counts)
+        return cls(float(omega0), eps, nu_half, w_center, w_scale, psi_scale, q_basis)
+
+    def scaled_w(self, w: np.ndarray) -> np.ndarray:
+        """``x = w~ = (w − w̄) / s`` for squared potentials ``w`` (``(..., n_e)``)."""
+        return (w - self.w_center) / self.w_scale
+
+    def scaled_q(self, w: np.ndarray) -> np.ndarray:
+        """The quadratic regressors ``φ_p`` for squared potentials ``w`` (``(..., n_e)``)."""
+        assert self.q_basis is not None
+        x = self.scaled_w(w)
+        a, b, h = self.q_basis.T
+        return (x**2 - a - b * x) / h
+
+    def w_polynomials(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """Coefficients in ``w`` of ``w~_p`` and ``φ_p``: ``(lin, quad)`` with ``lin[p] =
+        (c0, c1)`` (``w~_p = c0 + c1 w_p``) and ``quad[p] = (d0, d1, d2)`` (``φ_p = d0 + d1 w_p
+        + d2 w_p²``), or ``quad = None`` without the quadratic basis."""
+        c1 = 1.0 / self.w_scale
+        c0 = -self.w_center * c1
+        lin = np.column_stack([c0, c1])
+        if self.q_basis is None:
+            return lin, None
+        a, b, h = self.q_basis.T
+        # x² − a − b x with x = c0 + c1 w
+        d0 = (c0**2 - a - b * c0) / h
+        d1 = (2 * c0 * c1 - b * c1) / h
+        d2 = c1**2 / h
+        return lin, np.column_stack([d0, d1, d2])
+
+
+def _orthogonal_quadratic(x: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Per column of ``x`` (``(n_exp, n_e)``), ``(a, b, h)`` such that ``(x² − a − b x) / h``
+    is orthogonal to ``1`` and ``x`` under ``weights`` and at most 1 in magnitude.
+
+    A column with fewer than three distinct values has no quadratic part: ``h = 1`` and the
+    regressor is the (zero) residual; the rank condition refuses such a design before a fit.
+    """
+    out = np.zeros((x.shape[1], 3))
+    sw = np.sqrt(weights / weights.sum())
+    for p in range(x.shape[1]):
+        basis = np.column_stack([np.ones(x.shape[0]), x[:, p]]) * sw[:, None]
+        (a, b), *_ = np.linalg.lstsq(basis, x[:, p] ** 2 * sw, rcond=None)
+        resid = x[:, p] ** 2 - a - b * x[:, p]
+        peak = float(np.abs(resid).max())
+        out[p] = (a, b, peak if peak > 1e-12 else 1.0)
+    return out
 
 
 class FitProblem:
@@ -205,7 +267,7 @@ class FitProblem:
         self.psi = np.asarray(dataset["response"].values)[k_idx, q_idx]
         self.w = squared_potentials(self.structure_potential, self.bias)
         self.omega = 2 * np.pi * self.frequency_hz
-        self.scaling = Scaling.from_data(self.omega, self.w, self.psi)
+        self.scaling = Scaling.from_data(self.omega, self.w, self.psi, self.experiment)
         self.G = self._operator()
 
     @property
@@ -225,14 +287,12 @@ class FitProblem:
 
     def scaled_w(self) -> np.ndarray:
         """Scaled squared potentials ``w~`` per experiment, ``(n_exp, n_e)``."""
-        s = self.scaling
-        return (self.w - s.w_center) / s.w_scale
+        return self.scaling.scaled_w(self.w)
 
     def scaled_q(self) -> np.ndarray:
-        """Scaled ``q~ = (w² - q_c) / s_q`` per experiment, ``(n_exp, n_e)`` (quadratic law)."""
-        s = self.scaling
-        assert s.q_center is not None and s.q_scale is not None
-        return (self.w**2 - s.q_center) / s.q_scale
+        """The quadratic law's regressors ``φ`` per experiment, ``(n_exp, n_e)`` (see
+        :class:`Scaling`)."""
+        return self.scaling.scaled_q(self.w)
 
     def _operator(self) -> np.ndarray:
         """``G`` with shape ``(N, 8, n)``: rows Re E11..E22 then Im E11..E22."""
@@ -289,6 +349,44 @@ class FitProblem:
         """``sum_i G_i^T G_i / N``: the least-squares objective is ``theta^T gram theta``."""
         g = self.G.reshape(-1, self.layout.n)
         return (g.T @ g) / self.n_points
+
+    def normal_condition(self, law_basis: bool = False) -> float:
+        """Condition number of the equilibrated normal matrix of the unknowns other than ``M``.
+
+        The normal matrix is :attr:`gram` restricted to every unknown but ``M`` (which fixes
+        the scale), scaled to a unit diagonal (the 2-norm condition of a least-squares problem
+        after column equilibration). With ``law_basis`` and the quadratic law, it is computed
+        for the plain centred basis ``x_p``, ``x_p² − mean(x_p²)`` instead of the orthogonal
+        ``φ_p``: a large value there says the design barely separates ``w_p²`` from ``w_p``
+        (e.g. two levels of one electrode a hair apart), i.e. the law is not identified, even
+        though the orthogonal basis keeps the solve itself well conditioned.
+        """
+        lay = self.layout
+        g = self.gram
+        if law_basis and lay.quadratic:
+            g = self._monomial_transform().T @ g @ self._monomial_transform()
+        free = np.ones(lay.n, dtype=bool)
+        free[lay.M] = False
+        sub = g[np.ix_(free, free)]
+        d = np.sqrt(np.clip(np.diag(sub), 1e-300, None))
+        lam = np.linalg.eigvalsh(sub / np.outer(d, d))
+        return float(lam[-1] / lam[0]) if lam[0] > 0 else float("inf")
+
+    def _monomial_transform(self) -> np.ndarray:
+        """``T`` with ``theta = T theta_mono``, where ``theta_mono`` has the quadratic law's
+        unknowns ``L~_p`` multiplying ``x_p² − mean(x_p²)`` instead of ``φ_p``."""
+        lay, s = self.layout, self.scaling
+        assert s.q_basis is not None
+        x = self.scaled_w()[self.experiment]
+        mean_sq = (x**2).mean(axis=0)
+        t = np.eye(lay.n)
+        for p, (a, b, h) in enumerate(s.q_basis):
+            # x² − m = h φ + (a − m) + b x
+            lp, kp = lay.L(p), lay.K(p)
+            t[lp, lp] = h * np.eye(3)
+            t[lay.D, lp] = (a - mean_sq[p]) * np.eye(3)
+            t[kp, lp] = b * np.eye(3)
+        return t
 
     @cached_property
     def objective_scale(self) -> float:
