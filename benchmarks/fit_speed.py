@@ -91,7 +91,7 @@ def biases(n_exp: int) -> np.ndarray:
 def truth():  # -> GyroTruth
     """A two-electrode gyro like the paper's cloverleaf (B3 folded into K0), velocity pick-off,
     output low-passes: inside the model class for ``act`` with order 1."""
-    from sysid_core.simulation import GyroTruth, LowPass
+    from sysid_core.device.simulation import GyroTruth, LowPass
 
     two_pi = 2 * np.pi
     kp = np.array(
@@ -117,7 +117,7 @@ def truth():  # -> GyroTruth
 
 def dataset(case: str, seed: int = 0):  # -> xarray.Dataset
     """Synthetic data: 0.1 % noise per point plus 1e-4 of each experiment's peak (seeded)."""
-    from sysid_core.data import make_dataset
+    from sysid_core.data.schema import make_dataset
 
     n_exp, n_pts = parse_case(case)
     tr = truth()
@@ -147,8 +147,8 @@ def run_method(method: str, ds: Any, warmup: bool = False) -> dict[str, Any]:
     from sysid_solvers.scs_backend import ScsSolver
     from threadpoolctl import threadpool_limits
 
-    from sysid_core.fit import fit
-    from sysid_core.problem import FitProblem
+    from sysid_core.api import fit
+    from sysid_core.identification.problem import FitProblem
 
     t0 = time.perf_counter()
     if method == "cvxpy":

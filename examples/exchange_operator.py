@@ -26,8 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sysid_core.registry import get_registry
-from sysid_core.sweepfiles import SWEEP_FORMATS, write_sweep
+from sysid_core.data.sweepfiles import SWEEP_FORMATS, write_sweep
+from sysid_core.plugin.registry import get_registry
 
 REQUEST = re.compile(r"request-(\d{4,})\.json")
 

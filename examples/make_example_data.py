@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from sysid_cloverleaf.device import CloverleafGyro
 
-from sysid_core.data import concat_experiments, experiment_from_measurement, save_dataset
+from sysid_core.data.schema import concat_experiments, experiment_from_measurement, save_dataset
 
 
 def main(out: Path) -> None:

@@ -103,7 +103,7 @@ class SolverError(SysidError, RuntimeError):
 
     Attributes
     ----------
-    status : sysid_core.conic.SolveStatus or None
+    status : sysid_core.conic.program.SolveStatus or None
         How the solve ended, in the toolkit's words.
     word : str or None
         The solver's own status word (for messages only).
@@ -203,7 +203,7 @@ class NotConvergedError(SysidError, RuntimeError):
     Attributes
     ----------
     summary : object
-        The run's summary (:class:`sysid_core.pipeline.RunSummary`).
+        The run's summary (:class:`sysid_core.run.pipeline.RunSummary`).
     """
 
     def __init__(self, message: str, summary: object = None) -> None:

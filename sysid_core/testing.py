@@ -1,9 +1,9 @@
 """Contract tests a device author runs on their device (pytest).
 
 :class:`DeviceContract` is a mixin of pytest tests that checks an object against the
-:class:`~sysid_core.interfaces.Device` protocol and the behaviour the toolkit relies on. Subclass it
-in a test module, give the subclass a name pytest collects (``Test...``) and say how to build the
-device::
+:class:`~sysid_core.plugin.interfaces.Device` protocol and the behaviour the toolkit relies on.
+Subclass it in a test module, give the subclass a name pytest collects (``Test...``) and say how to
+build the device::
 
     # tests/test_contract.py of your package
     from sysid_core.testing import DeviceContract
@@ -25,7 +25,7 @@ class attributes tune the checks to a device (tolerances, sweep size) and are do
 What is checked
 ---------------
 * what ``sysid tune`` itself checks: the device's attributes before the first measurement, and
-  every answer (``check_device`` and ``check_answer`` of :mod:`sysid_core.measuring`);
+  every answer (``check_device`` and ``check_answer`` of :mod:`sysid_core.device.measuring`);
 * the protocol attributes exist with the right types: ``electrodes`` (non-empty, unique
   strings), ``bias_limits`` (two finite numbers, ordered), ``structure_potential`` (finite),
   ``band_hz`` (two finite positive numbers, ordered), ``measure`` callable;
@@ -43,7 +43,7 @@ What is checked
   ``bias_limits`` or with the wrong number of values, raising
   :class:`~sysid_core.errors.BiasLimitError` (the core checks first; this is defence in depth);
 * optional (:meth:`DeviceContract.device_factory`): building the factory as the registry does
-  (:func:`sysid_core.options.build`) rejects an unknown option with a
+  (:func:`sysid_core.plugin.options.build`) rejects an unknown option with a
   :class:`~sysid_core.errors.ConfigError` naming it.
 
 These tests measure, so on real hardware they drive it. The reference bias is inside the limits
@@ -61,10 +61,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from sysid_core.device import Device, SimulatedDevice, check_device
+from sysid_core.device.measuring import check_answer
+from sysid_core.device.protocol import Device, SimulatedDevice, check_device
 from sysid_core.errors import BiasLimitError, ConfigError
-from sysid_core.measuring import check_answer
-from sysid_core.options import build
+from sysid_core.plugin.options import build
 
 __all__ = ["DeviceContract"]
 
@@ -141,7 +141,7 @@ class DeviceContract:
     def test_follows_device_protocol(self, device: Device) -> None:
         assert isinstance(device, Device), (
             "the device lacks one of electrodes, bias_limits, structure_potential, band_hz, "
-            "measure (see sysid_core.interfaces.Device)"
+            "measure (see sysid_core.plugin.interfaces.Device)"
         )
         assert callable(device.measure)
 

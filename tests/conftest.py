@@ -9,7 +9,7 @@ import pytest
 from installing import install, remove_all
 from truths import OUTPUT_LOWPASS, cloverleaf_truth
 
-from sysid_core.simulation import GyroTruth
+from sysid_core.device.simulation import GyroTruth
 
 
 @pytest.fixture(scope="session")

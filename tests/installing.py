@@ -76,7 +76,7 @@ def install(path: Path, distribution: str) -> Path:
             pytest.skip(f"cannot install {path} offline (no package index reachable):\n{tail}")
         pytest.fail(f"pip could not install {path}:\n{tail}")
     importlib.invalidate_caches()
-    from sysid_core.registry import reset_registry
+    from sysid_core.plugin.registry import reset_registry
 
     reset_registry()  # the next lookup sees the new entry points
     _DONE[distribution] = _ROOT
@@ -93,7 +93,7 @@ def remove_all() -> None:
         _ROOT = None
         _DONE.clear()
         importlib.invalidate_caches()
-        from sysid_core.registry import reset_registry
+        from sysid_core.plugin.registry import reset_registry
 
         reset_registry()
 

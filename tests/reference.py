@@ -1,10 +1,12 @@
 """Reference cvxpy formulations of the fit programs, written independently of the assembly.
 
-The toolkit's objectives assemble their conic programs by hand (:mod:`sysid_core.programs`, from
-the linear operator :attr:`FitProblem.G <sysid_core.problem.FitProblem.G>` and the row builders of
-:class:`~sysid_core.problem.FitProblem`). This module writes the same programs the readable way,
-with named cvxpy matrix variables and one constraint per data point, directly from the scaled
-data of a :class:`~sysid_core.problem.FitProblem`:
+The toolkit's objectives assemble their conic programs by hand
+(:mod:`sysid_core.identification.programs`, from
+the linear operator :attr:`FitProblem.G <sysid_core.identification.problem.FitProblem.G>` and the
+row builders of
+:class:`~sysid_core.identification.problem.FitProblem`). This module writes the same programs the
+readable way, with named cvxpy matrix variables and one constraint per data point, directly from
+the scaled data of a :class:`~sysid_core.identification.problem.FitProblem`:
 
 .. math::
 
@@ -18,9 +20,9 @@ data of a :class:`~sysid_core.problem.FitProblem`:
 with :math:`\\Omega = \\omega/\\omega_0`, :math:`\\delta = \\Omega^2 - 1`,
 :math:`\\nu = (\\omega - \\omega_0)/h` and
 :math:`\\tilde\\psi = \\psi\\,\\omega_0^2\\varepsilon/s_\\psi` (the constants of
-:class:`~sysid_core.problem.Scaling`). Only the scaling constants and the data are shared with
-the assembled programs, never ``G``, so comparing the two optima checks the operator, the LMI
-embedding and the structural rows at once. Tests use it that way, and the
+:class:`~sysid_core.identification.problem.Scaling`). Only the scaling constants and the data are
+shared with the assembled programs, never ``G``, so comparing the two optima checks the operator,
+the LMI embedding and the structural rows at once. Tests use it that way, and the
 speed benchmark (``benchmarks/fit_speed.py``) uses it as "the straightforward cvxpy formulation".
 
 The constraints are those of the assembled programs: :math:`M \\succeq I`,
@@ -32,8 +34,8 @@ Two notes from measuring it (cvxpy 1.9, Clarabel 0.11):
 
 * cvxpy accepts the complex Hermitian LMI and embeds it as the real ``[[A, -B], [B, A]] ⪰ 0``;
   that cone has the dual degeneracy described in
-  :meth:`FitProblem.minimax_rows <sysid_core.problem.FitProblem.minimax_rows>`, so Clarabel
-  sometimes stalls with the dual residual a few times above ``tol_feas`` and ends
+  :meth:`FitProblem.minimax_rows <sysid_core.identification.problem.FitProblem.minimax_rows>`, so
+  Clarabel sometimes stalls with the dual residual a few times above ``tol_feas`` and ends
   ``AlmostSolved`` (cvxpy: ``"optimal_inaccurate"``) although γ is right to about 1e-8
   (e.g. ``sen`` on 3 x 41 points, ``act`` on 3 x 121). Pass ``tol_feas=1e-7``, or use
   ``form="sigma_max"`` (cvxpy's own ``sigma_max`` atom), which ended ``"optimal"`` in every case
@@ -58,7 +60,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from sysid_core.errors import SolverError
-from sysid_core.problem import EPS_DAMPING, EPS_STIFFNESS, FitProblem
+from sysid_core.identification.problem import EPS_DAMPING, EPS_STIFFNESS, FitProblem
 
 if TYPE_CHECKING:
     import cvxpy as cp
@@ -203,7 +205,8 @@ def _block(problem: FitProblem, stacked: cp.Expression, i: int) -> cp.Expression
 
 
 def _theta(problem: FitProblem, u: _Unknowns) -> np.ndarray:
-    """The variables' values in the order of :class:`~sysid_core.problem.ParameterLayout`."""
+    """The variables' values in the order of
+    :class:`~sysid_core.identification.problem.ParameterLayout`."""
     lay = problem.layout
     theta = np.zeros(lay.n)
 
@@ -246,8 +249,8 @@ def reference_errors(problem: FitProblem, theta: np.ndarray) -> np.ndarray:
     """Equation errors at ``theta`` evaluated through the reference cvxpy expressions.
 
     Independent of ``problem.G``: comparing with
-    :meth:`FitProblem.errors <sysid_core.problem.FitProblem.errors>` checks the assembled
-    operator directly, without solving anything.
+    :meth:`FitProblem.errors <sysid_core.identification.problem.FitProblem.errors>` checks the
+    assembled operator directly, without solving anything.
 
     Parameters
     ----------

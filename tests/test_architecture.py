@@ -1,5 +1,9 @@
-"""The architecture of ``sysid_core``: one-way layers, no cvxpy at run time, one registry per run.
+"""The architecture of ``sysid_core``: rooms with one-way imports, no cvxpy at run time, one
+registry per run, one set of defaults.
 
+* The rooms (subpackages) import one way (:data:`ROOMS`); a violation names the import. At most
+  six top-level modules, none over 400 lines, and every room's ``__init__`` says what lives
+  there and what it may import. The core imports no plugin.
 * No import cycle anywhere in ``sysid_core``, counting imports inside functions and under
   ``if TYPE_CHECKING:`` (a static graph from ``ast``; the cycle finder is tested on its own).
 * ``import sysid_core`` and a full ``sysid tune`` of the README example never import cvxpy (the
@@ -38,16 +42,16 @@ from sysid_objectives.minimax import Minimax
 from sysid_solvers.clarabel_backend import ClarabelSolver
 
 import sysid_core
-import sysid_core.registry
-from sysid_core.config import load_config
-from sysid_core.conic import Solver
+import sysid_core.plugin.registry
+from sysid_core import hookimpl
+from sysid_core.conic.program import Solver
 from sysid_core.errors import ConfigError
-from sysid_core.hookspec import hookimpl
-from sysid_core.model import FittedModel
-from sysid_core.pipeline import TuningRun
-from sysid_core.registry import Registry
-from sysid_core.run_summary import RunSummary
-from sysid_core.tuning import BiasSpace, TuningResult
+from sysid_core.model.fitted import FittedModel
+from sysid_core.plugin.registry import Registry
+from sysid_core.run.config import load_config
+from sysid_core.run.pipeline import TuningRun
+from sysid_core.run.summary import RunSummary
+from sysid_core.tuning.criteria import BiasSpace, TuningResult
 
 ROOT = Path(__file__).resolve().parents[1]
 CORE = Path(sysid_core.__file__).resolve().parent
@@ -56,10 +60,14 @@ README_EXAMPLE = ROOT / "examples" / "cloverleaf-2electrode.toml"
 
 # =============================================================== import graph and cycle finder
 def module_names(package_dir: Path, package: str) -> dict[str, Path]:
-    """Every module of a flat package: ``{"pkg": __init__.py, "pkg.mod": mod.py, ...}``."""
+    """Every module of a package and its subpackages: ``{"pkg": __init__.py, "pkg.sub.mod":
+    sub/mod.py, ...}`` (a subpackage is named by its ``__init__.py``)."""
     names = {}
-    for path in sorted(package_dir.glob("*.py")):
-        names[package if path.stem == "__init__" else f"{package}.{path.stem}"] = path
+    for path in sorted(package_dir.rglob("*.py")):
+        parts = path.relative_to(package_dir).with_suffix("").parts
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        names[".".join([package, *parts])] = path
     return names
 
 
@@ -287,9 +295,151 @@ def test_import_collector_counts_every_depth(tmp_path: Path) -> None:
 
 def test_sysid_core_has_no_import_cycle() -> None:
     graph = import_graph(CORE, "sysid_core")
-    assert len(graph) >= 40  # every module of the package was parsed
-    assert "sysid_core.registry" in graph["sysid_core.pipeline"]  # the graph has edges
+    assert len(graph) >= 60  # every module of the package and its rooms was parsed
+    assert "sysid_core.plugin.registry" in graph["sysid_core.run.pipeline"]  # the graph has edges
     check_acyclic(graph, "sysid_core")
+
+
+# ====================================================================== rooms and their order
+#: The rooms of sysid_core, lowest first: a module may import its own room and the rooms of
+#: lower rank, never a room of the same rank (siblings) or a higher one. ``sysid_core``
+#: itself (``__init__``, the facade) may import anything; ``_compat`` imports nothing.
+ROOMS: dict[str, int] = {
+    "errors": 0,
+    "data": 1,
+    "conic": 2,
+    "model": 3,
+    "identification": 4,
+    "tuning": 4,
+    "device": 4,
+    "plugin": 5,
+    "run": 6,
+    "batch": 7,
+    "api": 8,
+    "testing": 8,
+    "cli": 9,
+    "_compat": 10,
+}
+#: Top-level modules besides ``__init__`` (the issue's limit: 6).
+MAX_TOP_LEVEL = 6
+MAX_MODULE_LINES = 400
+
+
+def room_of(module: str) -> str | None:
+    """The room of a ``sysid_core`` module (``None`` for the package itself)."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else None
+
+
+def layer_violations(graph: Mapping[str, Iterable[str]]) -> list[str]:
+    """One line per import that goes up or sideways in :data:`ROOMS`, naming both ends."""
+    found = []
+    for module, targets in sorted(graph.items()):
+        room = room_of(module)
+        if room is None:
+            continue
+        for target in sorted(targets):
+            other = room_of(target)
+            if other is None or other == room:
+                if other is None and room != "_compat":
+                    found.append(f"{module} imports the package facade sysid_core")
+                continue
+            if ROOMS[other] >= ROOMS[room]:
+                allowed = ", ".join(r for r, k in ROOMS.items() if k < ROOMS[room]) or "nothing"
+                found.append(
+                    f"{module} imports {target}: the {room} room may import only {allowed}"
+                )
+    return found
+
+
+def test_layer_check_names_the_offending_import() -> None:
+    graph = {
+        "sysid_core.device.simulation": {"sysid_core.tuning.criteria", "sysid_core.model.modal"},
+        "sysid_core.model.fitted": {"sysid_core.data.schema"},
+        "sysid_core.data.schema": {"sysid_core.run.config"},
+    }
+    assert layer_violations(graph) == [
+        "sysid_core.data.schema imports sysid_core.run.config: the data room may import only "
+        "errors",
+        "sysid_core.device.simulation imports sysid_core.tuning.criteria: the device room may "
+        "import only errors, data, conic, model",
+    ]
+
+
+def test_imports_flow_one_way_through_the_rooms() -> None:
+    graph = import_graph(CORE, "sysid_core")
+    assert {room_of(m) for m in graph} - {None} == set(ROOMS)  # every room is known
+    problems = layer_violations(graph)
+    assert not problems, "imports against the rooms' order:\n" + "\n".join(problems)
+
+
+def test_the_core_imports_no_plugin() -> None:
+    """Plugins stay plugins: no module of sysid_core names a plugin or device package."""
+    offenders = []
+    for name, path in module_names(CORE, "sysid_core").items():
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            mods = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else [node.module or ""]
+                if isinstance(node, ast.ImportFrom)
+                else []
+            )
+            offenders += [
+                f"{name} imports {m}"
+                for m in mods
+                if m.startswith("sysid_") and not m.startswith("sysid_core")
+            ]
+    assert not offenders, offenders
+
+
+def test_rooms_sizes_and_docstrings() -> None:
+    """At most six top-level modules, none over 400 lines, and every room says what it holds
+    and what it may import."""
+    top = sorted(p.stem for p in CORE.glob("*.py") if p.stem != "__init__")
+    assert len(top) <= MAX_TOP_LEVEL, top
+    long = {
+        str(p.relative_to(CORE)): n
+        for p in CORE.rglob("*.py")
+        if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_MODULE_LINES
+    }
+    assert not long, f"modules over {MAX_MODULE_LINES} lines: {long}"
+    for init in CORE.glob("*/__init__.py"):
+        doc = ast.get_docstring(ast.parse(init.read_text(encoding="utf-8"))) or ""
+        if init.parent.name == "cli":
+            continue  # the program's module: its docstring is the program's
+        assert "Lives here" in doc and "May import" in doc, init
+
+
+def test_defaults_agree_everywhere() -> None:
+    """One set of defaults: the structures, fit(), the config's [model] and `sysid fit`."""
+    import inspect
+
+    from sysid_core.api import fit
+    from sysid_core.cli.fit import fit_cmd
+    from sysid_core.identification.objective import DEFAULT_OBJECTIVE, DEFAULT_SOLVER
+    from sysid_core.model import structures
+    from sysid_core.run.config import parse_config
+
+    defaults = (structures.DEFAULT_ORDER, structures.DEFAULT_BIAS_TERMS)
+    made = ActStructure()
+    assert (made.order, made.bias_terms, made.stiffness) == (*defaults, "auto")
+    model = parse_config({"device": {"name": "cloverleaf"}}).model
+    assert (model.order, model.bias_terms, model.stiffness) == (*defaults, "auto")
+    signature = inspect.signature(fit).parameters
+    assert signature["order"].default == structures.DEFAULT_ORDER
+    assert signature["objective"].default == DEFAULT_OBJECTIVE
+    assert signature["solver"].default == DEFAULT_SOLVER
+    cli = inspect.signature(fit_cmd).parameters
+    for name, value in [
+        ("order", structures.DEFAULT_ORDER),
+        ("bias_terms", structures.DEFAULT_BIAS_TERMS),
+        ("stiffness", structures.DEFAULT_STIFFNESS),
+        ("objective", DEFAULT_OBJECTIVE),
+        ("solver", DEFAULT_SOLVER),
+    ]:
+        assert cli[name].default == value, name
 
 
 # ============================================================= cvxpy is for the tests only
@@ -496,7 +646,7 @@ def _modules_importing_get_registry() -> list[str]:
 def no_global_registry(monkeypatch: pytest.MonkeyPatch) -> list[str]:
     """Every way to the process-wide registry fails the test (and is recorded).
 
-    ``get_registry`` is replaced in ``sysid_core.registry`` (function-level imports find it
+    ``get_registry`` is replaced in ``sysid_core.plugin.registry`` (function-level imports find it
     there) and in every loaded module that imported it by name; ``_REGISTRY`` becomes an object
     that fails on any use; loading entry points (what a new default ``Registry()`` does) fails.
     """
@@ -510,9 +660,9 @@ def no_global_registry(monkeypatch: pytest.MonkeyPatch) -> list[str]:
         def __getattr__(self, attribute: str) -> Any:
             fail(f"_REGISTRY.{attribute}")
 
-    original = sysid_core.registry.get_registry
+    original = sysid_core.plugin.registry.get_registry
     importers = _modules_importing_get_registry()
-    assert {"sysid_core", "sysid_core.fit", "sysid_core.pipeline"} <= set(importers)
+    assert {"sysid_core", "sysid_core.api"} <= set(importers)
     for name in importers:
         importlib.import_module(name)
     patched = []
@@ -524,7 +674,7 @@ def no_global_registry(monkeypatch: pytest.MonkeyPatch) -> list[str]:
                 monkeypatch.setattr(module, attribute, lambda: fail("get_registry()"))
                 patched.append(f"{name}.{attribute}")
     assert set(importers) <= {p.rsplit(".", 1)[0] for p in patched}
-    monkeypatch.setattr(sysid_core.registry, "_REGISTRY", Poison())
+    monkeypatch.setattr(sysid_core.plugin.registry, "_REGISTRY", Poison())
     monkeypatch.setattr(
         Registry, "load_entry_points", lambda self, eps: fail("Registry.load_entry_points()")
     )

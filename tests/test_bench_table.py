@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from sysid_core.study import load_study_config, plan_study
+from sysid_core.batch.study.runner import load_study_config, plan_study
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))

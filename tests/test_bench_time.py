@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from sysid_cloverleaf import CloverleafGyro
 
-from sysid_core.config import parse_config
-from sysid_core.data import load_dataset
-from sysid_core.modal import modal_analysis
-from sysid_core.pipeline import TuningRun
+from sysid_core.data.schema import load_dataset
+from sysid_core.model.modal import modal_analysis
+from sysid_core.run.config import parse_config
+from sysid_core.run.pipeline import TuningRun
 
 MEASUREMENT = re.compile(r"(exp\d+|verify(-\d+)?)\.nc")
 

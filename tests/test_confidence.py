@@ -12,14 +12,18 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sysid_core import fit, load_model
-from sysid_core.confidence import confidence_region, stiffness_vector
-from sysid_core.covariance import active_constraint_rows, stiffness_map, theta_covariance
-from sysid_core.model import model_from_problem
-from sysid_core.objective import ObjectiveResult
-from sysid_core.problem import FitProblem
-from sysid_core.registry import get_registry
-from sysid_core.structures import ModelStructure
-from sysid_core.tuning import BiasSpace
+from sysid_core.identification.covariance import (
+    active_constraint_rows,
+    stiffness_map,
+    theta_covariance,
+)
+from sysid_core.identification.fitting import model_from_problem
+from sysid_core.identification.objective import ObjectiveResult
+from sysid_core.identification.problem import FitProblem
+from sysid_core.model.structures import ModelStructure
+from sysid_core.plugin.registry import get_registry
+from sysid_core.tuning.confidence import confidence_region, stiffness_vector
+from sysid_core.tuning.criteria import BiasSpace
 from tests.truths import PAPER_BIASES, PAPER_FREQS, V_GYRO, cloverleaf_truth, simulate
 
 #: The paper's band at 0.5 Hz, 121 points per experiment (the default design).

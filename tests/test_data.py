@@ -11,8 +11,14 @@ from hypothesis.extra.numpy import arrays
 from truths import PAPER_BIASES, PAPER_FREQS, V_GYRO, simulate
 
 from sysid_core import errors
-from sysid_core.data import concat_experiments, load_dataset, make_dataset, save_dataset, to_frd
-from sysid_core.validation import check_rank_condition, validate
+from sysid_core.data.schema import (
+    concat_experiments,
+    load_dataset,
+    make_dataset,
+    save_dataset,
+    to_frd,
+)
+from sysid_core.data.validation import check_rank_condition, validate
 
 
 @pytest.fixture

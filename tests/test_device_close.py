@@ -10,10 +10,10 @@ import xarray as xr
 from sysid_cloverleaf import CloverleafGyro
 
 from sysid_core import hookimpl
-from sysid_core.config import parse_config
 from sysid_core.errors import DeviceError
-from sysid_core.pipeline import TuningRun
-from sysid_core.registry import Registry
+from sysid_core.plugin.registry import Registry
+from sysid_core.run.config import parse_config
+from sysid_core.run.pipeline import TuningRun
 
 
 class ClosingGyro(CloverleafGyro):

@@ -7,7 +7,7 @@ from collections.abc import Callable
 from sysid_cloverleaf import CloverleafGyro
 from sysid_post_resonator import PostResonatorGyro
 
-from sysid_core.interfaces import Device
+from sysid_core.plugin.interfaces import Device
 from sysid_core.testing import DeviceContract
 
 

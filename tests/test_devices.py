@@ -10,9 +10,9 @@ from sysid_simgyro import SimulatedGyro
 from sysid_simgyro.physics import differential_phase_deg
 
 from sysid_core.errors import BiasLimitError, ConfigError
-from sysid_core.options import build
-from sysid_core.registry import Registry
-from sysid_core.tuning import degenerate_bias as core_degenerate_bias
+from sysid_core.plugin.options import build
+from sysid_core.plugin.registry import Registry
+from sysid_core.tuning.criteria import degenerate_bias as core_degenerate_bias
 
 TWO_PI = 2 * np.pi
 LSB = 20.0 / 2**16

@@ -29,9 +29,9 @@ from pathlib import Path
 import pytest
 from installing import environment
 
-from sysid_core.components import build_components
-from sysid_core.config import parse_config
-from sysid_core.registry import get_registry
+from sysid_core.plugin.registry import get_registry
+from sysid_core.run.components import build_components
+from sysid_core.run.config import parse_config
 
 ROOT = Path(__file__).resolve().parents[1]
 FILES = sorted(

@@ -41,7 +41,7 @@ def _run(code: str) -> str:
 
 def test_registry_lists_example_gyro_with_its_distribution(example_installed: None) -> None:
     out = _run(
-        "from sysid_core.registry import Registry\n"
+        "from sysid_core.plugin.registry import Registry\n"
         "registry = Registry()\n"
         "component = registry.get('device', 'example-gyro')\n"
         "print(component.distribution)\n"

@@ -19,9 +19,9 @@ from installing import environment
 from truths import write_toml
 
 from sysid_core.cli import main
-from sysid_core.config import parse_config
 from sysid_core.errors import BiasLimitError, DeviceError
-from sysid_core.pipeline import TuningRun
+from sysid_core.run.config import parse_config
+from sysid_core.run.pipeline import TuningRun
 
 ROOT = Path(__file__).resolve().parents[1]
 OPERATOR = ROOT / "examples" / "exchange_operator.py"

@@ -18,9 +18,9 @@ from truths import OUTPUT_LOWPASS, PAPER_BIASES, cloverleaf_truth, simulate
 
 from sysid_core import fit, load_dataset, load_model
 from sysid_core.errors import DataError, FrequencyGridError, ModelError, SysidWarning
-from sysid_core.export import N_BAND_POINTS
-from sysid_core.model import FittedModel
-from sysid_core.tuning import degenerate_bias
+from sysid_core.model.export import N_BAND_POINTS
+from sysid_core.model.fitted import FittedModel
+from sysid_core.tuning.criteria import degenerate_bias
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "cloverleaf-3exp.nc"
 README_BIAS = [2.04, 4.39]
@@ -317,7 +317,7 @@ def test_describe_is_gone():
 def test_nearly_defective_modes(monkeypatch):
     """At an exceptional point (stiffness coupling = damping difference) the two modes nearly
     coalesce; the diagonal (modal) and the triangular (Schur) realisations both stay exact."""
-    import sysid_core.modal
+    import sysid_core.model.modal
 
     w0, c = 2 * np.pi * 4415.0, np.array([0.3, 0.7])
     k12, dk = 5548.05263, 0.0500001934  # |p1 - p2| ~ 4e-7 rad/s
@@ -338,7 +338,7 @@ def test_nearly_defective_modes(monkeypatch):
     upper = np.sort_complex(poles[poles.imag > 0])
     assert abs(upper[1] - upper[0]) < 1e-5
     for limit in (1e6, 0.0):  # 0: never diagonalise
-        monkeypatch.setattr(sysid_core.modal, "MODAL_COND_LIMIT", limit)
+        monkeypatch.setattr(sysid_core.model.modal, "MODAL_COND_LIMIT", limit)
         sys = model.to_statespace([])
         assert_stable(sys)
         assert relative_error(sys, model, [], band_grid(sys)) < 1e-3

@@ -26,9 +26,9 @@ import xarray as xr
 from installing import environment, start_sysid
 from truths import write_toml
 
+from sysid_core.api import fit
 from sysid_core.cli import main
-from sysid_core.config import parse_config
-from sysid_core.data import load_dataset, save_dataset
+from sysid_core.data.schema import load_dataset, save_dataset
 from sysid_core.errors import (
     DataError,
     DeviceError,
@@ -37,10 +37,10 @@ from sysid_core.errors import (
     RunFolderError,
     UnreachableTuningError,
 )
-from sysid_core.fit import fit
-from sysid_core.interfaces import Goal
-from sysid_core.pipeline import TuningRun
-from sysid_core.registry import get_registry
+from sysid_core.plugin.interfaces import Goal
+from sysid_core.plugin.registry import get_registry
+from sysid_core.run.config import parse_config
+from sysid_core.run.pipeline import TuningRun
 
 EXAMPLE_DATA = Path(__file__).resolve().parents[1] / "examples" / "cloverleaf-3exp.nc"
 FAST = {"resolution_hz": 1.0, "verify_resolution_hz": 0.02}
@@ -160,8 +160,8 @@ def test_window_without_modes_is_not_evidence() -> None:
     """The single-bias fit of a window 10 Hz from both modes invents two modes inside it."""
     from sysid_cloverleaf import CloverleafGyro
 
-    from sysid_core.data import experiment_from_measurement
-    from sysid_core.evidence import assess_window
+    from sysid_core.data.schema import experiment_from_measurement
+    from sysid_core.run.evidence import assess_window
 
     gyro = CloverleafGyro(seed=1)
 

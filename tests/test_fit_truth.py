@@ -7,8 +7,8 @@ import pytest
 from truths import PAPER_BIASES, PAPER_FREQS, PICKOFF, V_GYRO, cloverleaf_truth, simulate
 
 from sysid_core import fit
-from sysid_core.simulation import LowPass
-from sysid_core.tuning import degenerate_bias
+from sysid_core.device.simulation import LowPass
+from sysid_core.tuning.criteria import degenerate_bias
 
 OTHER_BIASES = [[2.0, 4.0], [-3.0, 5.0], [5.0, -2.0], [2.04, 4.39], [-6.0, -6.0]]
 
@@ -114,7 +114,7 @@ def test_clarabel_and_scs_agree(realistic_truth):
 
 def test_per_experiment_grids(in_class_truth):
     """Experiments with their own frequency grids (the paper's m_k points each)."""
-    from sysid_core.data import make_dataset
+    from sysid_core.data.schema import make_dataset
 
     grids = [PAPER_FREQS, PAPER_FREQS[::2], np.linspace(4386.1, 4444.1, 59)]
     resp = [in_class_truth.response(b, g) for b, g in zip(PAPER_BIASES, grids, strict=True)]

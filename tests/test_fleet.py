@@ -9,10 +9,10 @@ from typing import Any
 import numpy as np
 import pytest
 
+from sysid_core.batch.fleet import load_fleet, run_fleet
 from sysid_core.cli import main
 from sysid_core.errors import ConfigError, RunFolderError
-from sysid_core.fleet import load_fleet, run_fleet
-from sysid_core.registry import get_registry
+from sysid_core.plugin.registry import get_registry
 
 BASE = """
 [device]

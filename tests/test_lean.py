@@ -14,13 +14,13 @@ from hypothesis import strategies as st
 from sysid_cloverleaf import CloverleafGyro
 from sysid_random_gyro import RandomGyro
 
-from sysid_core import lean
-from sysid_core.config import parse_config
 from sysid_core.errors import DeviceError, UnreachableTuningError
-from sysid_core.evidence import local_steps
-from sysid_core.lean import ModeGuess, mode_grid, scout_grid
-from sysid_core.pipeline import TuningRun
-from sysid_core.sweeps import MIN_POINTS, SweepPlan
+from sysid_core.run import lean
+from sysid_core.run.config import parse_config
+from sysid_core.run.evidence import local_steps
+from sysid_core.run.lean import ModeGuess, mode_grid, scout_grid
+from sysid_core.run.pipeline import TuningRun
+from sysid_core.run.sweeps import MIN_POINTS, SweepPlan
 
 PLAN = SweepPlan((4385.0, 4445.0), 0.5, 6.0, 0.05, 1.0, 0.01, 20_000)
 MAIN_JOB = {

@@ -1,7 +1,7 @@
-"""Manifests of measured experiments (``sysid_core.manifest``) and ``sysid import`` / ``export`` /
-``fit MANIFEST.toml``: files from independent writers, per-experiment grids, exact round trips in
-every format (API and command line), one-line errors naming manifest and experiment, the rank
-condition, and the same model from a manifest as from the imported netCDF file.
+"""Manifests of measured experiments (``sysid_core.data.manifest``) and ``sysid import`` /
+``export`` / ``fit MANIFEST.toml``: files from independent writers, per-experiment grids, exact
+round trips in every format (API and command line), one-line errors naming manifest and experiment,
+the rank condition, and the same model from a manifest as from the imported netCDF file.
 """
 
 from __future__ import annotations
@@ -17,14 +17,7 @@ import xarray as xr
 from sysid_cloverleaf import CloverleafGyro
 
 from sysid_core.cli import main
-from sysid_core.data import load_dataset, make_dataset, save_dataset
-from sysid_core.errors import (
-    FileFormatError,
-    ManifestError,
-    RankConditionError,
-    TooFewExperimentsError,
-)
-from sysid_core.manifest import (
+from sysid_core.data.manifest import (
     EXPORT_FORMATS,
     MANIFEST_NAME,
     data_files,
@@ -34,7 +27,14 @@ from sysid_core.manifest import (
     load_manifest,
     read_manifest,
 )
-from sysid_core.sweepfiles import CSV_HEADER
+from sysid_core.data.schema import load_dataset, make_dataset, save_dataset
+from sysid_core.data.sweepfiles import CSV_HEADER
+from sysid_core.errors import (
+    FileFormatError,
+    ManifestError,
+    RankConditionError,
+    TooFewExperimentsError,
+)
 
 BIASES = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]  # the paper's, B3 held at 0 V
 # Per-experiment grids over 4385-4445 Hz (the paper's m_k points each), 61 points at most.

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from truths import PAPER_FREQS, cloverleaf_truth, simulate
 
 from sysid_core import errors, fit, load_model
-from sysid_core.modal import modal_analysis, snr_loss_db
+from sysid_core.model.modal import modal_analysis, snr_loss_db
 
 
 @pytest.fixture(scope="module")

@@ -27,9 +27,10 @@ from sysid_cloverleaf import CloverleafGyro
 from sysid_simgyro import SimulatedGyro
 from truths import write_toml
 
-import sysid_core.registry
+import sysid_core.plugin.registry
+from sysid_core import hookimpl
 from sysid_core.cli import main
-from sysid_core.config import load_config, parse_config
+from sysid_core.device.measuring import check_bias
 from sysid_core.errors import (
     BiasLimitError,
     ConfigError,
@@ -39,12 +40,11 @@ from sysid_core.errors import (
     SysidError,
     UnreachableTuningError,
 )
-from sysid_core.hookspec import hookimpl
-from sysid_core.measuring import check_bias
-from sysid_core.pipeline import TuningRun
-from sysid_core.registry import Registry
-from sysid_core.run_summary import RunSummary
-from sysid_core.sweeps import design_experiments
+from sysid_core.plugin.registry import Registry
+from sysid_core.run.config import load_config, parse_config
+from sysid_core.run.pipeline import TuningRun
+from sysid_core.run.summary import RunSummary
+from sysid_core.run.sweeps import design_experiments
 
 REDUCED = {"resolution_hz": 1.0, "verify_resolution_hz": 0.02}
 TWO_ELECTRODES = {
@@ -116,7 +116,7 @@ def registry(monkeypatch: pytest.MonkeyPatch) -> Registry:
     """The process-wide registry with the test device added (restored afterwards)."""
     reg = Registry()
     reg.register(_TestDevices(), name="test-devices", distribution="tests")
-    monkeypatch.setattr(sysid_core.registry, "_REGISTRY", reg)
+    monkeypatch.setattr(sysid_core.plugin.registry, "_REGISTRY", reg)
     RecordingCloverleaf.instances.clear()
     return reg
 

@@ -13,7 +13,7 @@ import xarray as xr
 from sysid_random_gyro import RandomGyro
 
 from sysid_core import errors
-from sysid_core.study import load_study_config, run_study
+from sysid_core.batch.study.runner import load_study_config, run_study
 
 POPULATION = """
 [device]
@@ -50,7 +50,7 @@ def test_population_study_tunes_each_gyro_with_its_own_structure(tmp_path: Path)
         used = json.loads((out / "runs" / result["key"] / "config.json").read_text())
         assert used["config"]["model"]["structure"] == gyro.structure
         assert result["start"] == [0.0] * len(gyro.electrodes)
-        assert result["points"] > 0 and result["bench_time_s"] > 0  # sysid_core.bench
+        assert result["points"] > 0 and result["bench_time_s"] > 0  # sysid_core.run.benchtime
         for it in result["iterations"]:
             # the study's true split is the generator's truth at the applied bias
             assert it["true_split_hz"] == pytest.approx(gyro.true_split_hz(it["bias"]), abs=1e-12)

@@ -20,15 +20,15 @@ from sysid_random_gyro import generator as gen
 from sysid_simgyro.physics import TWO_PI, differential_phase_deg, rotation
 from truths import cloverleaf_truth, write_toml
 
-from sysid_core.device import SimulatedDevice, check_device
+from sysid_core.api import tune
+from sysid_core.device.protocol import SimulatedDevice, check_device
+from sysid_core.device.simulation import GyroTruth
 from sysid_core.errors import ConfigError
-from sysid_core.interfaces import Device
-from sysid_core.options import build
-from sysid_core.registry import Registry
-from sysid_core.runs import tune
-from sysid_core.simulation import GyroTruth
+from sysid_core.plugin.interfaces import Device
+from sysid_core.plugin.options import build
+from sysid_core.plugin.registry import Registry
 from sysid_core.testing import DeviceContract
-from sysid_core.tuning import degenerate_bias as closed_form_degenerate_bias
+from sysid_core.tuning.criteria import degenerate_bias as closed_form_degenerate_bias
 
 SEEDS = range(200)
 #: Every seed's parameters, drawn once (about 0.1 s for all).

@@ -29,8 +29,9 @@ from sysid_objectives.minimax import Minimax
 from sysid_solvers.clarabel_backend import ClarabelSolver
 from truths import CLOVERLEAF, OUTPUT_LOWPASS, PAPER_BIASES, cloverleaf_truth, simulate
 
+from sysid_core.conic.program import sigma_max_2x2
 from sysid_core.errors import SolverError
-from sysid_core.problem import FitProblem, sigma_max_2x2
+from sysid_core.identification.problem import FitProblem
 
 FREQS = np.linspace(*CLOVERLEAF.band_hz, 11)
 STRUCTURES = {"act": ActStructure, "sen": SenStructure}
@@ -47,7 +48,7 @@ def dataset():
 
 
 def make_problem(dataset, structure: str, order: int) -> FitProblem:
-    return FitProblem(dataset, STRUCTURES[structure](order))
+    return FitProblem(dataset, STRUCTURES[structure](order, bias_terms=0, stiffness="linear"))
 
 
 @pytest.mark.parametrize("order", [0, 1, 2])

@@ -9,7 +9,7 @@ import types
 import pytest
 
 from sysid_core import errors, hookimpl
-from sysid_core.registry import PluginLoadWarning, Registry
+from sysid_core.plugin.registry import PluginLoadWarning, Registry
 
 
 def _ep(name: str, value: str) -> md.EntryPoint:

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from truths import write_toml
 
-from sysid_core.study import load_study_config, run_study
+from sysid_core.batch.study.runner import load_study_config, run_study
 
 ROOT = Path(__file__).resolve().parents[1]
 

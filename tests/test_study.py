@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from sysid_core import errors
-from sysid_core.study import failure_message, load_study_config, plan_study, run_study
+from sysid_core.batch.study.runner import failure_message, load_study_config, plan_study, run_study
 
 SMALL = """
 [device]
@@ -87,7 +87,7 @@ def test_rerun_skips_done_runs_and_writes_outputs(tmp_path, monkeypatch):
     first = run_study(cfg, out, executor="local", plots=True)
     assert (out / "results.nc").exists() and (out / "summary.json").exists()
     assert (out / "fig-least-squares-act-iter2.png").exists()
-    import sysid_core.study_exec as study_exec
+    import sysid_core.batch.study.execute as study_exec
 
     def boom(spec):
         raise AssertionError(f"run {spec.key} should not run again")
@@ -118,7 +118,7 @@ def _break_measurements_at(monkeypatch, tuned_start: list[float]) -> None:
 
 
 def test_failed_run_is_reported_others_finish_and_a_rerun_retries_it(tmp_path, monkeypatch):
-    import sysid_core.study_exec as study_exec
+    import sysid_core.batch.study.execute as study_exec
 
     cfg = _cfg(tmp_path, SMALL.replace("iterations = 2", "iterations = 1"))
     out = tmp_path / "f"
@@ -237,7 +237,7 @@ def test_cli_exits_1_when_runs_failed_after_writing_every_output(tmp_path):
 
 
 def test_cli_partial_failure_then_rerun_retries_it(tmp_path, monkeypatch, capsys):
-    import sysid_core.study_exec as study_exec
+    import sysid_core.batch.study.execute as study_exec
     from sysid_core.cli import main
 
     cfg = tmp_path / "study.toml"
@@ -266,7 +266,7 @@ def test_cli_partial_failure_then_rerun_retries_it(tmp_path, monkeypatch, capsys
 
 
 def test_cut_off_run_restarts_and_nothing_else_is_deleted(tmp_path):
-    import sysid_core.study_exec as study_exec
+    import sysid_core.batch.study.execute as study_exec
 
     cfg = _cfg(tmp_path, SMALL.replace("iterations = 2", "iterations = 1"))
     out = tmp_path / "s"

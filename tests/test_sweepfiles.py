@@ -1,6 +1,7 @@
-"""Response files (``sysid_core.sweepfiles``): each format read from files written by independent
-writers (the ``csv`` module, scikit-rf's ``write_touchstone``, ``scipy.io.savemat``, xarray),
-exact round trips through :func:`write_sweep`, and one-line errors naming file and line/variable.
+"""Response files (``sysid_core.data.sweepfiles``): each format read from files written by
+independent writers (the ``csv`` module, scikit-rf's ``write_touchstone``, ``scipy.io.savemat``,
+xarray), exact round trips through :func:`write_sweep`, and one-line errors naming file and
+line/variable.
 """
 
 from __future__ import annotations
@@ -16,19 +17,19 @@ import xarray as xr
 from scipy.io import savemat
 from sysid_cloverleaf import CloverleafGyro
 
-from sysid_core.data import experiment_from_measurement, save_dataset
-from sysid_core.errors import (
-    DimensionError,
-    FileFormatError,
-    FrequencyGridError,
-    NonFiniteDataError,
-)
-from sysid_core.sweepfiles import (
+from sysid_core.data.schema import experiment_from_measurement, save_dataset
+from sysid_core.data.sweepfiles import (
     CSV_HEADER,
     SWEEP_FORMATS,
     make_sweep,
     read_sweep,
     write_sweep,
+)
+from sysid_core.errors import (
+    DimensionError,
+    FileFormatError,
+    FrequencyGridError,
+    NonFiniteDataError,
 )
 
 FREQS = np.linspace(4385.0, 4445.0, 61)

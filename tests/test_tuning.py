@@ -18,12 +18,12 @@ from sysid_criteria import Degenerate, MinMaxBias, Target
 from sysid_models import ActStructure
 from sysid_solvers import ClarabelSolver
 
-from sysid_core.conic import SolveStatus
+from sysid_core.conic.program import SolveStatus
+from sysid_core.device.simulation import GyroTruth
 from sysid_core.errors import BiasLimitError, ConfigError, SolverError, UnreachableTuningError
-from sysid_core.model import FittedModel
-from sysid_core.options import build
-from sysid_core.simulation import GyroTruth
-from sysid_core.tuning import BiasSpace, bias_from_w, frequencies_from_w, w_interval
+from sysid_core.model.fitted import FittedModel
+from sysid_core.plugin.options import build
+from sysid_core.tuning.criteria import BiasSpace, bias_from_w, frequencies_from_w, w_interval
 
 TWO_PI = 2 * np.pi
 SOLVER = ClarabelSolver()
@@ -362,7 +362,7 @@ def test_best_dac_code_is_a_code_near_the_answer_and_predicted_best(
     """Among the codes one step around the answer, the chosen one is a real code (the DAC
     applies it unchanged), at most one step from the answer on each electrode, and the model
     predicts it at least as well as plain rounding and better than any other neighbour."""
-    from sysid_core.dac import best_code, predicted_modes_hz
+    from sysid_core.run.dac import best_code, predicted_modes_hz
 
     device = CloverleafGyro(dac_bits=bits)
     tuned = ["B1", "B2", "B3"]

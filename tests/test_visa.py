@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 from installing import environment, start_sysid
 
-from sysid_core.config import parse_config
 from sysid_core.errors import ConfigError, DeviceError
-from sysid_core.pipeline import TuningRun
-from sysid_core.registry import get_registry
+from sysid_core.plugin.registry import get_registry
+from sysid_core.run.config import parse_config
+from sysid_core.run.pipeline import TuningRun
 
 TUNING = {
     "criterion": "degenerate",

@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 from sysid_cloverleaf import CloverleafParameters
 
-from sysid_core.data import make_dataset
-from sysid_core.simulation import GyroTruth, LowPass
+from sysid_core.data.schema import make_dataset
+from sysid_core.device.simulation import GyroTruth, LowPass
 
 __all__ = [
     "CLOVERLEAF",

@@ -2,9 +2,9 @@
 
 The device of Kim & M'Closkey (2006), Section III: a cloverleaf plate with a central post whose
 two rocking modes near 4.4 kHz are tuned by three bias electrodes E_B1..E_B3 (here ``B1``, ``B2``,
-``B3``). The two-mode truth is a :class:`sysid_core.simulation.GyroTruth` (kept as the device's
-``truth`` attribute); :class:`sysid_simgyro.SimulatedGyro` adds noise, feedthrough, out-of-band
-modes and DAC quantisation.
+``B3``). The two-mode truth is a :class:`sysid_core.device.simulation.GyroTruth` (kept as the
+device's ``truth`` attribute); :class:`sysid_simgyro.SimulatedGyro` adds noise, feedthrough,
+out-of-band modes and DAC quantisation.
 
 Calibration source
 ------------------

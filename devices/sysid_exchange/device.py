@@ -5,8 +5,8 @@ For measurement ``k`` (1, 2, ...) the device writes, atomically, ``request-000k.
     {"id": k, "electrodes": [...], "bias_v": [...], "frequencies_hz": [...]}
 
 and waits for the answer: ``response-000k.<csv|s2p|mat|nc>`` (one sweep at that bias, in one of
-the formats of :mod:`sysid_core.sweepfiles`; the answering side writes it under another name and
-renames it, so that it appears complete) or ``error-000k.txt`` (its text becomes the run's
+the formats of :mod:`sysid_core.data.sweepfiles`; the answering side writes it under another name
+and renames it, so that it appears complete) or ``error-000k.txt`` (its text becomes the run's
 device error). An answer that is not a valid measurement (not complex, other frequencies,
 non-finite, a file that cannot be read) is moved to ``rejected/`` with the reason and the device
 keeps waiting: the answer may be written again.
@@ -33,10 +33,10 @@ import numpy as np
 import xarray as xr
 from annotated_types import Gt
 
+from sysid_core.data.io import write_json
+from sysid_core.data.sweepfiles import SWEEP_FORMATS, read_sweep
+from sysid_core.device.measuring import check_answer
 from sysid_core.errors import BiasLimitError, ConfigError, DataError, DeviceError
-from sysid_core.io import write_json
-from sysid_core.measuring import check_answer
-from sysid_core.sweepfiles import SWEEP_FORMATS, read_sweep
 
 __all__ = ["ExchangeDevice"]
 

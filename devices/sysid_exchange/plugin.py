@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 
-from sysid_core.device import Device
-from sysid_core.hookspec import hookimpl
+from sysid_core import hookimpl
+from sysid_core.device.protocol import Device
 from sysid_exchange.device import ExchangeDevice
 
 

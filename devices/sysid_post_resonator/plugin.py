@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 
-from sysid_core.hookspec import hookimpl
-from sysid_core.interfaces import Device
+from sysid_core import hookimpl
+from sysid_core.plugin.interfaces import Device
 from sysid_post_resonator.device import PostResonatorGyro
 
 

@@ -151,7 +151,7 @@ class RandomGyro(ParametrizedGyro):
     def true_degenerate_bias(self) -> np.ndarray:
         """The exact degenerate bias of B1 and B2, every other electrode at 0 V (volts).
 
-        Solved from the truth (:meth:`sysid_core.simulation.GyroTruth.degenerate_bias` on
+        Solved from the truth (:meth:`sysid_core.device.simulation.GyroTruth.degenerate_bias` on
         electrodes (0, 1)); equal to the drawn ``params.degenerate_bias`` to solver precision.
         A copy: changing it changes nothing.
         """

@@ -15,7 +15,7 @@ from sysid_simgyro.effects import ExtraMode
 from sysid_simgyro.params import GyroParameterSet
 from sysid_simgyro.physics import TWO_PI, softening_stiffness
 
-from sysid_core.simulation import GyroTruth
+from sysid_core.device.simulation import GyroTruth
 
 __all__ = [
     "BAND_BANDWIDTHS",

@@ -1,7 +1,7 @@
 """Shared machinery of the built-in simulated gyros (``cloverleaf``, ``post-resonator``).
 
-:class:`SimulatedGyro` wraps an exact :class:`sysid_core.simulation.GyroTruth` and adds what a
-real measurement has and the identified model class does not: complex measurement noise,
+:class:`SimulatedGyro` wraps an exact :class:`sysid_core.device.simulation.GyroTruth` and adds what
+a real measurement has and the identified model class does not: complex measurement noise,
 parasitic capacitive feedthrough proportional to frequency, out-of-band structural modes and DAC
 quantisation of the applied bias. It refuses (``BiasLimitError``) any bias outside its limits.
 

@@ -8,9 +8,9 @@ from typing import ClassVar
 import numpy as np
 import xarray as xr
 
+from sysid_core.device.simulation import GyroTruth
 from sysid_core.errors import BiasLimitError, ConfigError, FrequencyGridError
-from sysid_core.modal import modal_analysis
-from sysid_core.simulation import GyroTruth
+from sysid_core.model.modal import modal_analysis
 from sysid_simgyro.effects import ExtraMode, peak_magnitude, quantize_bias
 from sysid_simgyro.options import (
     COMMON_OPTIONS,
@@ -26,7 +26,8 @@ __all__ = ["ParametrizedGyro", "SimulatedGyro"]
 
 
 class SimulatedGyro:
-    """A simulated two-mode gyro that follows the :class:`~sysid_core.interfaces.Device` protocol.
+    """A simulated two-mode gyro that follows the :class:`~sysid_core.plugin.interfaces.Device`
+    protocol.
 
     A measurement at bias ``dv`` and frequency ``ω`` is
 
@@ -305,7 +306,7 @@ class ParametrizedGyro(SimulatedGyro):
 
     Subclasses set :attr:`name`, :attr:`description` and :attr:`parameters_class`. The keyword
     options are those of a config's ``[device]`` table (see :attr:`options`), checked by the
-    registry against this signature (:mod:`sysid_core.options`); an unknown one
+    registry against this signature (:mod:`sysid_core.plugin.options`); an unknown one
     raises :class:`~sysid_core.errors.ConfigError` naming it.
 
     Parameters

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.optimize
 
-from sysid_core.modal import modal_analysis
-from sysid_core.simulation import GyroTruth
+from sysid_core.device.simulation import GyroTruth
+from sysid_core.model.modal import modal_analysis
 from sysid_simgyro.physics import TWO_PI
 
 __all__ = ["ExtraMode", "peak_magnitude", "quantize_bias"]

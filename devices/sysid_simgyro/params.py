@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sysid_core.simulation import GyroTruth, LowPass
+from sysid_core.device.simulation import GyroTruth, LowPass
 from sysid_simgyro.effects import ExtraMode
 from sysid_simgyro.physics import (
     TWO_PI,

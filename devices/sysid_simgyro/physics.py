@@ -11,7 +11,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from sysid_core.simulation import LowPass
+from sysid_core.device.simulation import LowPass
 
 __all__ = [
     "TWO_PI",

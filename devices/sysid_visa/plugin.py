@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 
+from sysid_core import hookimpl
 from sysid_core.device import Device
-from sysid_core.hookspec import hookimpl
+from sysid_visa.cli import instrument_sim_cmd
 from sysid_visa.device import VisaDevice
 
 
@@ -13,3 +14,9 @@ from sysid_visa.device import VisaDevice
 def sysid_devices() -> Mapping[str, Callable[..., Device]]:
     """The PyVISA bench device."""
     return {VisaDevice.name: VisaDevice}
+
+
+@hookimpl
+def sysid_cli_commands() -> Mapping[str, Callable[..., None]]:
+    """``sysid instrument-sim``: simulated instruments for the device."""
+    return {"instrument-sim": instrument_sim_cmd}

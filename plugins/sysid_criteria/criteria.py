@@ -7,11 +7,17 @@ from typing import Annotated, Any
 import numpy as np
 from annotated_types import Gt
 
-from sysid_core.conic import Solver
+from sysid_core.conic.program import Solver
 from sysid_core.errors import ConfigError, SolverError, UnreachableTuningError
-from sysid_core.model import FittedModel
-from sysid_core.spread import solve_spread
-from sysid_core.tuning import BiasSpace, Goal, TuningCriterion, TuningResult, frequencies_from_w
+from sysid_core.model.fitted import FittedModel
+from sysid_core.tuning.criteria import (
+    BiasSpace,
+    Goal,
+    TuningCriterion,
+    TuningResult,
+    frequencies_from_w,
+)
+from sysid_core.tuning.spread import solve_spread
 
 __all__ = ["Degenerate", "MinMaxBias", "Target"]
 
@@ -26,7 +32,7 @@ class _Base(TuningCriterion):
     """Shared by the three: the conic ``solver`` (the run's, with its options) and a tolerance.
 
     Options are checked by the registry against these annotations (see
-    :mod:`sysid_core.options`) before anything is built.
+    :mod:`sysid_core.plugin.options`) before anything is built.
     """
 
     def __init__(self, *, solver: Solver, tolerance_hz: Positive = 1e-3) -> None:

@@ -7,7 +7,7 @@ sensor-actuator non-collocation; they differ only in which side ``P`` sits on.
 
 from __future__ import annotations
 
-from sysid_core.structures import ModelStructure
+from sysid_core.model.structures import ModelStructure
 
 __all__ = ["ActStructure", "SenStructure"]
 

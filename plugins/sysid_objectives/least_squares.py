@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from sysid_core.conic import Solver
-from sysid_core.covariance import theta_covariance
-from sysid_core.objective import Objective, ObjectiveResult, Progress
-from sysid_core.problem import FitProblem
-from sysid_core.programs import least_squares_program
+from sysid_core.conic.program import Solver
+from sysid_core.identification.covariance import theta_covariance
+from sysid_core.identification.objective import Objective, ObjectiveResult, Progress
+from sysid_core.identification.problem import FitProblem
+from sysid_core.identification.programs import least_squares_program
 
 __all__ = ["LeastSquares"]
 
@@ -18,7 +18,8 @@ class LeastSquares(Objective):
 
     The statistically efficient choice under random measurement noise: the same equation errors
     and constraints as ``minimax``, all points weighted equally. It also states how uncertain
-    its answer is: the covariance of the unknowns (:func:`sysid_core.covariance.theta_covariance`),
+    its answer is: the covariance of the unknowns
+    (:func:`sysid_core.identification.covariance.theta_covariance`),
     from which every tuning answer gets its confidence region. Takes no options.
     """
 

@@ -7,11 +7,15 @@ from typing import Annotated
 import numpy as np
 from annotated_types import Ge, Gt
 
-from sysid_core.conic import Solver, SolveStatus
+from sysid_core.conic.program import Solver, SolveStatus
 from sysid_core.errors import ConfigError, FitError, SolverError
-from sysid_core.objective import Objective, ObjectiveResult, Progress
-from sysid_core.problem import FitProblem
-from sysid_core.programs import least_squares_program, minimax_program, tie_break_program
+from sysid_core.identification.objective import Objective, ObjectiveResult, Progress
+from sysid_core.identification.problem import FitProblem
+from sysid_core.identification.programs import (
+    least_squares_program,
+    minimax_program,
+    tie_break_program,
+)
 
 __all__ = ["Minimax"]
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 
-from sysid_core.hookspec import hookimpl
-from sysid_core.interfaces import Objective
+from sysid_core import hookimpl
+from sysid_core.plugin.interfaces import Objective
 from sysid_objectives.least_squares import LeastSquares
 from sysid_objectives.minimax import Minimax
 

@@ -7,7 +7,7 @@ from typing import Any, ClassVar
 import numpy as np
 import scipy.sparse as sp
 
-from sysid_core.conic import (
+from sysid_core.conic.program import (
     ConicProgram,
     ConicSolution,
     Solver,
@@ -44,7 +44,7 @@ class ClarabelSolver(Solver):
         "AlmostSolved").
 
     Only status ``Solved`` is accepted; any other status (``AlmostSolved`` included) raises
-    :class:`~sysid_core.errors.SolverError` with its :class:`~sysid_core.conic.SolveStatus`.
+    :class:`~sysid_core.errors.SolverError` with its :class:`~sysid_core.conic.program.SolveStatus`.
     The options are open-ended (every Clarabel setting), so this backend takes ``**options``
     and lets Clarabel check each one as it is set, at construction.
     """

@@ -8,7 +8,7 @@ import numpy as np
 import scipy.sparse as sp
 from annotated_types import Gt
 
-from sysid_core.conic import ConicProgram, ConicSolution, Solver, SolveStatus
+from sysid_core.conic.program import ConicProgram, ConicSolution, Solver, SolveStatus
 from sysid_core.errors import SolverError
 
 __all__ = ["ScsSolver"]
@@ -36,7 +36,7 @@ class ScsSolver(Solver):
         Passed to SCS when given (see SCS's documentation).
 
     Only status ``solved`` is accepted; every other status raises
-    :class:`~sysid_core.errors.SolverError` with its :class:`~sysid_core.conic.SolveStatus`.
+    :class:`~sysid_core.errors.SolverError` with its :class:`~sysid_core.conic.program.SolveStatus`.
     """
 
     name = "scs"

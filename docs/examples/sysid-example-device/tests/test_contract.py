@@ -7,7 +7,7 @@ from collections.abc import Callable
 import numpy as np
 from sysid_example_device import ExampleGyro
 
-from sysid_core.interfaces import Device
+from sysid_core.plugin.interfaces import Device
 from sysid_core.testing import DeviceContract
 
 

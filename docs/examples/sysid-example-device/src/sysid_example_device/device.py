@@ -21,8 +21,8 @@ from typing import ClassVar
 import numpy as np
 import xarray as xr
 
+from sysid_core.device.simulation import GyroTruth
 from sysid_core.errors import BiasLimitError, ConfigError
-from sysid_core.simulation import GyroTruth
 
 __all__ = ["ExampleGyro", "example_truth"]
 

@@ -1,6 +1,6 @@
 """Entry point of the ``faulty-gyro`` device."""
 
-from sysid_core.hookspec import hookimpl
+from sysid_core import hookimpl
 from sysid_faulty_device.device import FaultyGyro
 
 

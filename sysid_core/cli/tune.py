@@ -1,0 +1,95 @@
+"""``sysid tune``: the tuning pipeline from a configuration file."""
+
+from __future__ import annotations
+
+import json
+import shlex
+import time
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from sysid_core.cli.app import Interrupted, JsonOption, OutDirOption, command, err, out
+
+
+@command("tune")
+def tune_cmd(
+    config: Annotated[Path, typer.Argument(help="Configuration file (TOML).")],
+    out_dir: OutDirOption = None,
+    as_json: JsonOption = False,
+    resume: Annotated[
+        bool, typer.Option("--resume", help="Continue the run in --out without re-measuring.")
+    ] = False,
+    no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip the plots.")] = False,
+    plot_format: Annotated[
+        str, typer.Option("--plot-format", help="Plots as png (default), pdf or svg.")
+    ] = "png",
+) -> None:
+    """Tune a gyro: identify, compute the biases, verify, iterate (paper Sec. II-D).
+
+    Exits 0 only when the run converged (a verified split under the acceptance and every goal
+    of the criterion met); 1 when it did not, with every result saved in --out.
+    """
+    from sysid_core.errors import NotConvergedError
+    from sysid_core.run.config import load_config
+    from sysid_core.run.pipeline import TuningRun
+
+    cfg = load_config(config)
+    target = out_dir or Path("runs") / config.stem
+    resume_cmd = f"sysid tune {shlex.quote(str(config))} --out {shlex.quote(str(target))} --resume"
+    with err.status("starting ...") as status:
+
+        def progress(message: str) -> None:
+            status.update(message)
+            if not as_json:
+                err.print(f"[dim]{time.strftime('%H:%M:%S')}[/dim] {message}", highlight=False)
+
+        run = TuningRun(
+            cfg,
+            target,
+            resume=resume,
+            progress=progress,
+            plots=not no_plots,
+            plot_format=plot_format,
+        )
+        try:
+            summary = run.run()
+        except KeyboardInterrupt:
+            raise Interrupted(
+                f"interrupted; every measurement so far is saved in {target}/. "
+                f"Continue with: {resume_cmd}"
+            ) from None
+    if as_json:
+        print(json.dumps({k: v for k, v in summary.as_dict().items() if k != "history"}))
+    else:
+        out.print(f"{summary.device}: {summary.status}", highlight=False)
+        out.print(
+            "final bias: "
+            + ", ".join(
+                f"{e} = {b:.4f} V" for e, b in zip(summary.electrodes, summary.bias, strict=True)
+            )
+        )
+        region = summary.confidence
+        if region is not None:
+            tuned = [summary.electrodes.index(e) for e in summary.tuned]
+            out.print(
+                f"{region['confidence_level']:.0%} region of the last answer: "
+                + ", ".join(
+                    f"{summary.electrodes[p]} {region['bias_ci'][p][0]:.4f}.."
+                    f"{region['bias_ci'][p][1]:.4f} V"
+                    for p in tuned
+                )
+                + f"; split {region['split_ci_hz'][0] * 1e3:.3g}-"
+                f"{region['split_ci_hz'][1] * 1e3:.3g} mHz",
+                highlight=False,
+            )
+        out.print(
+            f"results and plots in {target}/ (summary.json, bias_path.{plot_format}, iterNN/)"
+        )
+    if not summary.converged:
+        raise NotConvergedError(
+            f"{summary.status}; results in {target}/ (run again with more [tuning] "
+            f"max_iterations in a new --out, or inspect {target}/summary.json)",
+            summary,
+        )

@@ -1,0 +1,38 @@
+"""Measured data: the data-set schema, its checks, and every file the toolkit reads or writes.
+
+Lives here: the ``xarray`` schema of a multi-experiment data set and its netCDF files
+(:mod:`.schema`), the checks of a data set and of the rank condition (6) (:mod:`.validation`),
+atomic file writing (:mod:`.io`), one sweep per file in CSV, Touchstone, MATLAB and netCDF
+(:mod:`.sweepfiles`), manifests of measured experiments (:mod:`.manifest`) and the reading of a
+run folder's measurements (:mod:`.runfolder`).
+
+May import: :mod:`sysid_core.errors` and third-party libraries only.
+"""
+
+from sysid_core.data.schema import (
+    RESPONSE_DIMS,
+    concat_experiments,
+    experiment_from_measurement,
+    load_dataset,
+    make_dataset,
+    measured_mask,
+    read_netcdf,
+    requested_bias,
+    save_dataset,
+    squared_potentials,
+    to_frd,
+)
+
+__all__ = [
+    "RESPONSE_DIMS",
+    "concat_experiments",
+    "experiment_from_measurement",
+    "load_dataset",
+    "make_dataset",
+    "measured_mask",
+    "read_netcdf",
+    "requested_bias",
+    "save_dataset",
+    "squared_potentials",
+    "to_frd",
+]

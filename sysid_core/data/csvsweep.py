@@ -1,0 +1,126 @@
+"""Response files in CSV: the toolkit's own layout (see :mod:`sysid_core.data.sweepfiles`)."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from sysid_core.data.sweep import (
+    CSV_COLUMNS,
+    CSV_HEADER,
+    INPUTS,
+    OUTPUTS,
+    UNITS_LINE,
+    check_sweep,
+    make_sweep,
+)
+from sysid_core.errors import (
+    FileFormatError,
+)
+
+__all__ = ["csv_text", "read_csv"]
+
+
+# ------------------------------------------------------------------------------------- CSV
+def csv_text(f: np.ndarray, resp: np.ndarray, units: str) -> str:
+    lines = [f"# response_units: {units}"] if units else []
+    lines.append(CSV_HEADER)
+    flat = resp.reshape(f.size, 4)
+    for k in range(f.size):
+        parts = [repr(float(f[k]))]
+        for z in flat[k]:
+            parts += [repr(float(z.real)), repr(float(z.imag))]
+        lines.append(",".join(parts))
+    return "\n".join(lines) + "\n"
+
+
+def _header_problem(fields: list[str]) -> str:
+    """What is wrong with a CSV header (it is not :data:`CSV_HEADER`)."""
+    if len(fields) == 1 and ";" in fields[0]:
+        return "fields must be separated by commas, not semicolons"
+    try:
+        [float(x) for x in fields]
+    except ValueError:
+        pass
+    else:
+        return "no header line; the first line that is not a comment must be the header"
+    if fields and not any(name.endswith("_im") for name in fields):
+        return (
+            "no imaginary-part columns (*_im): the file holds a real-valued response, but the "
+            "response must be complex (real and imaginary part of each channel)"
+        )
+    unknown = [name for name in fields if name not in CSV_COLUMNS]
+    if unknown:
+        return f"unknown column {unknown[0]!r}"
+    missing = [name for name in CSV_COLUMNS if name not in fields]
+    if missing:
+        return f"missing column(s) {', '.join(missing)}"
+    return "the columns are not in the required order"
+
+
+def read_csv(path: Path) -> xr.DataArray:
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise FileFormatError(f"{path}: not a UTF-8 text file ({exc.reason})") from exc
+    units: str | None = None
+    header_line = 0
+    rows: list[list[float]] = []
+    lines: list[int] = []
+    for number, line in enumerate(text.splitlines(), start=1):
+        if line.lstrip().startswith("#"):
+            match = UNITS_LINE.match(line.lstrip()[1:])
+            if match:
+                value = match.group(1).strip()
+                if units is not None and value != units:
+                    raise FileFormatError(
+                        f"{path}, line {number}: a second response_units ({value!r}) differs "
+                        f"from the first ({units!r})"
+                    )
+                units = value
+            continue
+        if not line.strip():
+            continue
+        fields = [x.strip() for x in next(csv.reader([line]))]
+        if not header_line:
+            if tuple(fields) != CSV_COLUMNS:
+                raise FileFormatError(
+                    f"{path}, line {number}: {_header_problem(fields)}; the header must be "
+                    f"exactly {CSV_HEADER}"
+                )
+            header_line = number
+            continue
+        if len(fields) != len(CSV_COLUMNS):
+            raise FileFormatError(
+                f"{path}, line {number}: {len(fields)} field(s); expected {len(CSV_COLUMNS)} "
+                f"({CSV_HEADER})"
+            )
+        row = []
+        for name, field in zip(CSV_COLUMNS, fields, strict=True):
+            try:
+                row.append(float(field))
+            except ValueError:
+                raise FileFormatError(
+                    f"{path}, line {number}: {name} is {field!r}, not a number"
+                ) from None
+        rows.append(row)
+        lines.append(number)
+    if not header_line:
+        raise FileFormatError(f"{path}: no header line; expected {CSV_HEADER}")
+    if not rows:
+        raise FileFormatError(f"{path}: no data rows after the header (line {header_line})")
+    data = np.array(rows)
+    f = data[:, 0]
+    flat = np.empty((f.size, 4), dtype=complex)  # not re + 1j*im: nan*1j spoils the real part
+    flat.real, flat.imag = data[:, 1::2], data[:, 2::2]
+    resp = flat.reshape(-1, 2, 2)
+
+    def value_at(k: int, o: int, i: int) -> str:
+        part = "re" if not np.isfinite(resp[k, o, i].real) else "im"
+        return f"{path}, line {lines[k]}: {OUTPUTS[o]}_{INPUTS[i]}_{part}"
+
+    check_sweep(f, resp, str(path), lambda k: f"{path}, line {lines[k]}", value_at)
+    return make_sweep(f, resp, units or "", str(path))

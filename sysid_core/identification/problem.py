@@ -1,0 +1,399 @@
+"""The fit problem: scaled data, the linear equation-error operator, and conic-program pieces.
+
+Scaling (see docs/fitting.md): with the band centre :math:`\\omega_0`,
+:math:`\\Omega=\\omega/\\omega_0`,
+:math:`\\delta=\\Omega^2-1` and :math:`\\varepsilon=\\max|\\delta|`, the unknowns are written
+
+.. math::
+
+    K_c = \\omega_0^2 (M + \\varepsilon \\tilde D_0),\\quad
+    K_p = \\omega_0^2 \\varepsilon \\tilde K_p / s_p,\\quad
+    C = \\omega_0 \\varepsilon \\tilde C,\\quad
+    P(\\nu) = s_\\psi \\textstyle\\sum_l \\tilde P_l \\nu^l,
+
+where :math:`K_c = K_0 + \\sum_p K_p \\bar w_p` is the stiffness at the mean squared potentials
+:math:`\\bar w`, :math:`\\tilde w_p = (w_p - \\bar w_p)/s_p`, and
+:math:`\\nu = (\\omega-\\omega_0)/h` with :math:`h=\\max|\\omega-\\omega_0|`. Then
+:math:`Z = \\omega_0^2\\varepsilon\\,\\tilde Z` with
+:math:`\\tilde Z = \\tilde D_0 + \\sum_p \\tilde w_p \\tilde K_p - (\\delta/\\varepsilon) M +
+j\\Omega\\tilde C`, and with :math:`\\tilde\\psi = \\psi\\,\\omega_0^2\\varepsilon/s_\\psi` the
+equation error is :math:`E = s_\\psi (\\tilde P - \\tilde\\psi\\tilde Z)` (act) or
+:math:`s_\\psi(\\tilde P - \\tilde Z\\tilde\\psi)` (sen). Every unknown is then O(1e-3 … 1); the
+centring removes the near-cancellation of :math:`M\\omega^2` and :math:`K_0`.
+
+The scaled unknowns form the vector :math:`\\theta` (layout in :class:`ParameterLayout`), and the
+equation error at every data point is linear in it: :math:`E_i = G_i\\theta`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import xarray as xr
+
+from sysid_core.conic.program import SYM_BASIS, sigma_max_2x2
+from sysid_core.data.schema import measured_mask, squared_potentials
+from sysid_core.data.validation import check_rank_condition, validate
+from sysid_core.model.structures import ModelStructure
+
+__all__ = [
+    "EPS_DAMPING",
+    "EPS_STIFFNESS",
+    "FitProblem",
+    "ParameterLayout",
+    "Scaling",
+]
+
+#: Strict inequality C > 0 becomes C ⪰ EPS_DAMPING·ω0·ε·I (scaled: C̃ ⪰ EPS_DAMPING·I);
+#: it bounds Q below about 1/(ε·EPS_DAMPING) ≈ 1e9 for a 1.4 % band.
+EPS_DAMPING = 1e-8
+#: Strict inequality K(w_k) > 0 becomes K(w_k) ⪰ EPS_STIFFNESS·ω0²·I at every experiment's bias.
+EPS_STIFFNESS = 1e-6
+
+
+@dataclass(frozen=True)
+class ParameterLayout:
+    """Positions of the scaled unknowns in ``theta``.
+
+    Order: ``M`` (3: m11, m12, m22), ``C~`` (3), ``D~0`` (3), ``K~_p`` (3 per electrode), then per
+    polynomial degree ``l``: real parts of ``P~_l`` (4, row-major) and imaginary parts (4); then,
+    for ``l < bias_terms`` and each electrode ``p``, the 8 reals of ``P~_{l,p}``; then, with a
+    quadratic stiffness law, ``L~_p`` (3 per electrode).
+    """
+
+    n_electrodes: int
+    order: int
+    bias_terms: int = 0
+    quadratic: bool = False
+
+    @property
+    def n_z(self) -> int:
+        """Number of unknowns of ``Z`` (real)."""
+        return 9 + 3 * self.n_electrodes
+
+    @property
+    def n(self) -> int:
+        """Total number of real unknowns."""
+        return self._n_before_l + (3 * self.n_electrodes if self.quadratic else 0)
+
+    @property
+    def _n_before_l(self) -> int:
+        return self.n_z + 8 * (self.order + 1) + 8 * self.bias_terms * self.n_electrodes
+
+    M = slice(0, 3)
+    C = slice(3, 6)
+    D = slice(6, 9)
+
+    def K(self, p: int) -> slice:
+        """Slice of electrode ``p``'s stiffness."""
+        return slice(9 + 3 * p, 12 + 3 * p)
+
+    def L(self, p: int) -> slice:
+        """Slice of electrode ``p``'s quadratic stiffness ``L~_p`` (quadratic law only)."""
+        if not self.quadratic:
+            raise IndexError("a linear stiffness law has no L_p")
+        return slice(self._n_before_l + 3 * p, self._n_before_l + 3 * p + 3)
+
+    def poly(self, degree: int) -> slice:
+        """Slice of the 8 reals of ``P~_degree`` (4 real parts then 4 imaginary parts)."""
+        start = self.n_z + 8 * degree
+        return slice(start, start + 8)
+
+    def poly_w(self, degree: int, p: int) -> slice:
+        """Slice of the 8 reals of ``P~_{degree,p}`` (bias-dependent term of electrode ``p``)."""
+        start = self.n_z + 8 * (self.order + 1) + 8 * (degree * self.n_electrodes + p)
+        return slice(start, start + 8)
+
+    def names(self) -> list[str]:
+        """Human-readable name of each unknown."""
+        names = [f"{m}{ij}" for m in ("M", "C", "D0") for ij in ("11", "12", "22")]
+        names += [f"K{p + 1}_{ij}" for p in range(self.n_electrodes) for ij in ("11", "12", "22")]
+        for deg in range(self.order + 1):
+            names += [
+                f"P{deg}_{part}{ij}" for part in ("re", "im") for ij in ("11", "12", "21", "22")
+            ]
+        for deg in range(self.bias_terms):
+            for p in range(self.n_electrodes):
+                names += [
+                    f"P{deg}w{p + 1}_{part}{ij}"
+                    for part in ("re", "im")
+                    for ij in ("11", "12", "21", "22")
+                ]
+        if self.quadratic:
+            names += [
+                f"L{p + 1}_{ij}" for p in range(self.n_electrodes) for ij in ("11", "12", "22")
+            ]
+        return names
+
+
+@dataclass(frozen=True)
+class Scaling:
+    """The constants that make the fit well conditioned (see the module docstring).
+
+    With the quadratic stiffness law, electrode ``p``'s second regressor is not ``w_p²`` (whose
+    values over a design of a few volts are nearly proportional to ``w_p``'s) but the discrete
+    orthogonal polynomial ``φ_p = (x_p² − a_p − b_p x_p) / h_p`` in ``x_p = w~_p``: ``a_p, b_p``
+    make it orthogonal to ``1`` and ``x_p`` over the data points, ``h_p`` scales its largest
+    value to 1 (``q_basis[p] = (a_p, b_p, h_p)``). :meth:`w_polynomials` maps both regressors
+    back to polynomials in ``w``.
+    """
+
+    omega0: float
+    eps: float
+    nu_half: float
+    w_center: np.ndarray
+    w_scale: np.ndarray
+    psi_scale: float
+    q_basis: np.ndarray | None = None
+
+    @classmethod
+    def from_data(
+        cls,
+        omega: np.ndarray,
+        w: np.ndarray,
+        psi: np.ndarray,
+        experiment: np.ndarray | None = None,
+    ) -> Scaling:
+        """Choose the scaling for frequencies ``omega`` (rad/s), squared potentials ``w``
+        ``(n_exp, n_e)`` and responses ``psi`` ``(N, 2, 2)``; ``experiment`` (``(N,)``, the
+        experiment of each point) weights each experiment by its points in the quadratic
+        basis (default: equal weights)."""
+        omega0 = 0.5 * (omega.min() + omega.max())
+        delta = (omega / omega0) ** 2 - 1
+        eps = float(np.abs(delta).max())
+        nu_half = float(np.abs(omega - omega0).max())
+        w_center = w.mean(axis=0)
+        spread = np.abs(w - w_center).max(axis=0)
+        w_scale = np.where(spread > 0, spread, 1.0)
+        psi_scale = float(np.median(sigma_max_2x2(psi))) * omega0**2 * eps
+        if not np.isfinite(psi_scale) or psi_scale <= 0:
+            psi_scale = 1.0
+        counts = (
+            np.ones(w.shape[0])
+            if experiment is None
+            else np.bincount(experiment, minlength=w.shape[0]).astype(float)
+        )
+        q_basis = _orthogonal_quadratic((w - w_center) / w_scale, counts)
+        return cls(float(omega0), eps, nu_half, w_center, w_scale, psi_scale, q_basis)
+
+    def scaled_w(self, w: np.ndarray) -> np.ndarray:
+        """``x = w~ = (w − w̄) / s`` for squared potentials ``w`` (``(..., n_e)``)."""
+        return (w - self.w_center) / self.w_scale
+
+    def scaled_q(self, w: np.ndarray) -> np.ndarray:
+        """The quadratic regressors ``φ_p`` for squared potentials ``w`` (``(..., n_e)``)."""
+        assert self.q_basis is not None
+        x = self.scaled_w(w)
+        a, b, h = self.q_basis.T
+        return (x**2 - a - b * x) / h
+
+    def w_polynomials(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """Coefficients in ``w`` of ``w~_p`` and ``φ_p``: ``(lin, quad)`` with ``lin[p] =
+        (c0, c1)`` (``w~_p = c0 + c1 w_p``) and ``quad[p] = (d0, d1, d2)`` (``φ_p = d0 + d1 w_p
+        + d2 w_p²``), or ``quad = None`` without the quadratic basis."""
+        c1 = 1.0 / self.w_scale
+        c0 = -self.w_center * c1
+        lin = np.column_stack([c0, c1])
+        if self.q_basis is None:
+            return lin, None
+        a, b, h = self.q_basis.T
+        # x² − a − b x with x = c0 + c1 w
+        d0 = (c0**2 - a - b * c0) / h
+        d1 = (2 * c0 * c1 - b * c1) / h
+        d2 = c1**2 / h
+        return lin, np.column_stack([d0, d1, d2])
+
+
+def _orthogonal_quadratic(x: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Per column of ``x`` (``(n_exp, n_e)``), ``(a, b, h)`` such that ``(x² − a − b x) / h``
+    is orthogonal to ``1`` and ``x`` under ``weights`` and at most 1 in magnitude.
+
+    A column with fewer than three distinct values has no quadratic part: ``h = 1`` and the
+    regressor is the (zero) residual; the rank condition refuses such a design before a fit.
+    """
+    out = np.zeros((x.shape[1], 3))
+    sw = np.sqrt(weights / weights.sum())
+    for p in range(x.shape[1]):
+        basis = np.column_stack([np.ones(x.shape[0]), x[:, p]]) * sw[:, None]
+        (a, b), *_ = np.linalg.lstsq(basis, x[:, p] ** 2 * sw, rcond=None)
+        resid = x[:, p] ** 2 - a - b * x[:, p]
+        peak = float(np.abs(resid).max())
+        out[p] = (a, b, peak if peak > 1e-12 else 1.0)
+    return out
+
+
+class FitProblem:
+    """Data and structure, scaled, with the linear map from unknowns to equation errors.
+
+    Parameters
+    ----------
+    dataset : xarray.Dataset
+        Validated data (see :mod:`sysid_core.data.schema`).
+    structure : ModelStructure
+        The model structure (``act`` or ``sen``) with its polynomial order.
+    """
+
+    def __init__(self, dataset: xr.Dataset, structure: ModelStructure) -> None:
+        validate(dataset)
+        self.dataset = dataset
+        self.structure = structure
+        self.electrodes = [str(e) for e in dataset["electrode"].values]
+        self.structure_potential = float(dataset.attrs["structure_potential"])
+        self.bias = np.asarray(dataset["bias"].values, dtype=float)
+        self.layout = ParameterLayout(
+            len(self.electrodes),
+            structure.order,
+            structure.bias_terms,
+            getattr(structure, "stiffness", "linear") == "quadratic",
+        )
+        if self.layout.quadratic:
+            check_rank_condition(self.bias, self.structure_potential, self.electrodes, True)
+        mask = measured_mask(dataset)
+        f = np.asarray(dataset["frequency"].values, dtype=float)
+        k_idx, q_idx = np.nonzero(mask)
+        self.experiment = k_idx
+        self.frequency_hz = f[q_idx]
+        self.psi = np.asarray(dataset["response"].values)[k_idx, q_idx]
+        self.w = squared_potentials(self.structure_potential, self.bias)
+        self.omega = 2 * np.pi * self.frequency_hz
+        self.scaling = Scaling.from_data(self.omega, self.w, self.psi, self.experiment)
+        self.G = self._operator()
+
+    @property
+    def n_points(self) -> int:
+        """Number of data points (all experiments)."""
+        return int(self.psi.shape[0])
+
+    @property
+    def n_experiments(self) -> int:
+        """Number of experiments."""
+        return int(self.bias.shape[0])
+
+    @property
+    def n_parameters(self) -> int:
+        """Number of real unknowns (the scaled ``theta``)."""
+        return self.layout.n
+
+    def scaled_w(self) -> np.ndarray:
+        """Scaled squared potentials ``w~`` per experiment, ``(n_exp, n_e)``."""
+        return self.scaling.scaled_w(self.w)
+
+    def scaled_q(self) -> np.ndarray:
+        """The quadratic law's regressors ``φ`` per experiment, ``(n_exp, n_e)`` (see
+        :class:`Scaling`)."""
+        return self.scaling.scaled_q(self.w)
+
+    def _operator(self) -> np.ndarray:
+        """``G`` with shape ``(N, 8, n)``: rows Re E11..E22 then Im E11..E22."""
+        s, lay = self.scaling, self.layout
+        n_pts = self.n_points
+        big_omega = self.omega / s.omega0
+        d_eps = (big_omega**2 - 1) / s.eps
+        nu = (self.omega - s.omega0) / s.nu_half
+        psi_t = self.psi * (s.omega0**2 * s.eps / s.psi_scale)
+        wt = self.scaled_w()[self.experiment]  # (N, n_e)
+        # product(psi~, S_a) for the three symmetric basis matrices: (N, 3, 2, 2)
+        prod = self.structure.product(psi_t[:, None], SYM_BASIS[None].astype(complex))
+        g = np.zeros((n_pts, 2, 2, lay.n), dtype=complex)
+        # Z~ = D~ + sum w~ K~ - (delta/eps) M + j Omega C~ ; E = P~ - product(psi~, Z~)
+        coef = [
+            (lay.M, -d_eps.astype(complex)),
+            (lay.C, 1j * big_omega),
+            (lay.D, np.ones(n_pts, dtype=complex)),
+        ]
+        coef += [(lay.K(p), wt[:, p].astype(complex)) for p in range(lay.n_electrodes)]
+        if lay.quadratic:
+            qt = self.scaled_q()[self.experiment]
+            coef += [(lay.L(p), qt[:, p].astype(complex)) for p in range(lay.n_electrodes)]
+        for sl, c in coef:
+            for a in range(3):
+                g[:, :, :, sl.start + a] = -c[:, None, None] * prod[:, a]
+        blocks = [(lay.poly(deg), nu**deg) for deg in range(lay.order + 1)]
+        blocks += [
+            (lay.poly_w(deg, p), nu**deg * wt[:, p])
+            for deg in range(lay.bias_terms)
+            for p in range(lay.n_electrodes)
+        ]
+        for sl, factor in blocks:
+            for e in range(4):
+                r, col = divmod(e, 2)
+                g[:, r, col, sl.start + e] = factor
+                g[:, r, col, sl.start + 4 + e] = 1j * factor
+        flat = g.reshape(n_pts, 4, lay.n)
+        return np.ascontiguousarray(np.concatenate([flat.real, flat.imag], axis=1))
+
+    # ----------------------------------------------------------------- evaluation
+    def errors(self, theta: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+        """Complex equation errors ``(N, 2, 2)`` in scaled units at ``theta``."""
+        g = self.G if points is None else self.G[points]
+        e = g @ theta
+        return (e[:, :4] + 1j * e[:, 4:]).reshape(-1, 2, 2)
+
+    def residuals(self, theta: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+        """σ̄(E) at every data point (scaled units)."""
+        return sigma_max_2x2(self.errors(theta, points))
+
+    @cached_property
+    def gram(self) -> np.ndarray:
+        """``sum_i G_i^T G_i / N``: the least-squares objective is ``theta^T gram theta``."""
+        g = self.G.reshape(-1, self.layout.n)
+        return (g.T @ g) / self.n_points
+
+    def normal_condition(self, law_basis: bool = False) -> float:
+        """Condition number of the equilibrated normal matrix of the unknowns other than ``M``.
+
+        The normal matrix is :attr:`gram` restricted to every unknown but ``M`` (which fixes
+        the scale), scaled to a unit diagonal (the 2-norm condition of a least-squares problem
+        after column equilibration). With ``law_basis`` and the quadratic law, it is computed
+        for the plain centred basis ``x_p``, ``x_p² − mean(x_p²)`` instead of the orthogonal
+        ``φ_p``: a large value there says the design barely separates ``w_p²`` from ``w_p``
+        (e.g. two levels of one electrode a hair apart), i.e. the law is not identified, even
+        though the orthogonal basis keeps the solve itself well conditioned.
+        """
+        lay = self.layout
+        g = self.gram
+        if law_basis and lay.quadratic:
+            g = self._monomial_transform().T @ g @ self._monomial_transform()
+        free = np.ones(lay.n, dtype=bool)
+        free[lay.M] = False
+        sub = g[np.ix_(free, free)]
+        d = np.sqrt(np.clip(np.diag(sub), 1e-300, None))
+        lam = np.linalg.eigvalsh(sub / np.outer(d, d))
+        return float(lam[-1] / lam[0]) if lam[0] > 0 else float("inf")
+
+    def _monomial_transform(self) -> np.ndarray:
+        """``T`` with ``theta = T theta_mono``, where ``theta_mono`` has the quadratic law's
+        unknowns ``L~_p`` multiplying ``x_p² − mean(x_p²)`` instead of ``φ_p``."""
+        lay, s = self.layout, self.scaling
+        assert s.q_basis is not None
+        x = self.scaled_w()[self.experiment]
+        mean_sq = (x**2).mean(axis=0)
+        t = np.eye(lay.n)
+        for p, (a, b, h) in enumerate(s.q_basis):
+            # x² − m = h φ + (a − m) + b x
+            lp, kp = lay.L(p), lay.K(p)
+            t[lp, lp] = h * np.eye(3)
+            t[lay.D, lp] = (a - mean_sq[p]) * np.eye(3)
+            t[kp, lp] = b * np.eye(3)
+        return t
+
+    @cached_property
+    def objective_scale(self) -> float:
+        """A typical value of ``theta^T gram theta`` near the optimum (for conditioning).
+
+        The minimum with ``M = I`` fixed and every other unknown free: a linear solve. Quadratic
+        objectives are divided by it so that their optimal value is O(1) whatever the noise
+        level (an O(1e-8) optimum stalls interior-point solvers at their absolute tolerances).
+        """
+        g = self.gram
+        m = np.zeros(self.layout.n, dtype=bool)
+        m[self.layout.M] = True
+        fixed = np.array([1.0, 0.0, 1.0])
+        rhs = -g[np.ix_(~m, m)] @ fixed
+        free, *_ = np.linalg.lstsq(g[np.ix_(~m, ~m)], rhs, rcond=None)
+        theta = np.zeros(self.layout.n)
+        theta[m], theta[~m] = fixed, free
+        value = float(theta @ g @ theta)
+        return value if np.isfinite(value) and value > 1e-300 else 1.0

@@ -1,0 +1,87 @@
+"""Choosing the DAC code to apply: the neighbouring code the model predicts best.
+
+A device whose bias source quantises (a DAC) applies the nearest code to the answer, and near
+the answer the split changes by up to a few mHz per code (the split's slope scales with the
+modal frequency: about 3 mHz per 0.3 mV step at 25 kHz). Plain rounding then leaves that much.
+:func:`best_code` looks at the codes around the answer, one step up, none or one down on each
+tuned electrode (``3**n`` candidates), and returns the one at which the model predicts the
+smallest split (or, for a target frequency, the smallest frequency error). It needs the
+device's optional ``bias_resolution`` (volts per code) and ``applied_bias(bias)``
+(``docs/writing-a-device.md``); without them the answer is applied as it is.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from sysid_core.device.measuring import GuardedDevice, applied_bias
+from sysid_core.model.fitted import FittedModel
+from sysid_core.tuning.confidence import _normalise, _trace_dev
+from sysid_core.tuning.criteria import BiasSpace, TuningResult
+
+__all__ = ["MAX_ELECTRODES", "best_code", "bias_resolution", "predicted_modes_hz"]
+
+#: Above this many tuned electrodes (3**n candidates) the answer is applied as it is.
+MAX_ELECTRODES = 8
+
+
+def bias_resolution(device: object) -> float | None:
+    """The device's DAC step in volts, if it states a positive finite one."""
+    raw = device.device if isinstance(device, GuardedDevice) else device
+    value = getattr(raw, "bias_resolution", None)
+    try:
+        step = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return None
+    return step if np.isfinite(step) and step > 0 else None
+
+
+def predicted_modes_hz(model: FittedModel, w: np.ndarray) -> np.ndarray:
+    """The model's two undamped modal frequencies (Hz) at each row of ``w``, ``(S, 2)``."""
+    w = np.atleast_2d(np.asarray(w, dtype=float))
+    t, d = _trace_dev(_normalise(model.M[None], model.stiffness_w(w)))
+    r = np.hypot(d[:, 0], d[:, 1])
+    low = np.sqrt(np.clip(t - r, 0.0, None))
+    high = np.sqrt(np.clip(t + r, 0.0, None))
+    return np.stack([low, high], axis=1) / (2 * np.pi)
+
+
+def best_code(
+    model: FittedModel, result: TuningResult, space: BiasSpace, device: object
+) -> np.ndarray | None:
+    """The DAC code around ``result.bias`` that the model predicts best, or ``None``.
+
+    ``None`` when the device states no resolution or cannot say what it applies, or with more
+    than :data:`MAX_ELECTRODES` tuned electrodes. Codes outside the device's limits are
+    skipped (``applied_bias`` refuses them). The measure is the predicted split, or the largest
+    frequency error for an answer with a ``target_hz``; ties go to the code nearest the answer.
+    """
+    step = bias_resolution(device)
+    index = space.index
+    if step is None or len(index) > MAX_ELECTRODES:
+        return None
+    bias = np.asarray(result.bias, dtype=float)
+    codes, distance = [], []
+    for offsets in itertools.product((-1.0, 0.0, 1.0), repeat=len(index)):
+        candidate = bias.copy()
+        candidate[index] += step * np.asarray(offsets)
+        applied = applied_bias(device, candidate)
+        if applied is not None:
+            codes.append(applied)
+            distance.append(float(np.max(np.abs(applied[index] - bias[index]))))
+    if not codes:
+        return None
+    applied_codes = np.array(codes)
+    w = (space.structure_potential - applied_codes[:, index]) ** 2
+    f = predicted_modes_hz(model, w)
+    target = result.info.get("target_hz")
+    if target is not None:
+        score = np.max(np.abs(f - float(target)), axis=1)
+    else:
+        score = f[:, 1] - f[:, 0]
+    best = float(score.min())
+    tied = np.flatnonzero(score <= best + 1e-9 * max(abs(best), 1e-12) + 1e-15)
+    choice = tied[np.argmin(np.asarray(distance)[tied])]
+    return applied_codes[choice]

@@ -1,0 +1,197 @@
+"""Everything a run has measured, kept for every later fit and for guessing where modes are.
+
+A lean run (``[experiment] protocol = "lean"``) never throws a measurement away: the fit of an
+iteration uses the union of every sweep of the run (identification sweeps, verification
+windows, whole-band sweeps), which meets the rank condition (6) as soon as the biases of all
+of them together do, or, once a verification has shown that the stiffness law holds only
+locally, the sweeps near the bias (:meth:`Knowledge.near`). Each sweep also left its own
+estimate of the modes at its bias (from the single-bias fit that judged its evidence);
+:meth:`Knowledge.guess` turns these and a model of the union into a
+:class:`~sysid_core.run.lean.ModeGuess` for a bias not measured yet.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import xarray as xr
+
+from sysid_core.data.schema import concat_experiments, requested_bias
+from sysid_core.data.validation import check_rank_condition
+from sysid_core.errors import SysidError
+from sysid_core.model.fitted import FittedModel
+from sysid_core.model.structures import ModelStructure
+from sysid_core.run.evidence import WindowAssessment
+from sysid_core.run.lean import ModeGuess
+
+__all__ = ["Knowledge", "Measured"]
+
+#: Biases closer than this (volts) count as the same (a DAC applies the requested bias only to
+#: within its step).
+SAME_V = 1e-3
+
+#: Fits a data set with a given structure (the run's objective and solver).
+FitWith = Callable[[xr.Dataset, ModelStructure], FittedModel]
+
+
+@dataclass(frozen=True)
+class Measured:
+    """One sweep of the run: its data (one experiment) and the modes its evidence located."""
+
+    data: xr.Dataset
+    modes: ModeGuess | None
+
+    @property
+    def bias(self) -> np.ndarray:
+        """The bias it was requested at (every electrode, volts).
+
+        Where the run has been is told by what it asked for; the fits use the bias the device
+        reports it applied (a DAC's, or a bias law of its own), which is in the data.
+        """
+        return requested_bias(self.data)
+
+
+class Knowledge:
+    """The run's measurements, in order.
+
+    Parameters
+    ----------
+    tuned : list of str
+        The tuned electrodes (the model's electrodes).
+    structure_potential : float
+        ``v_gyro``, for the rank condition.
+    """
+
+    def __init__(self, tuned: Sequence[str], structure_potential: float) -> None:
+        self.tuned = list(tuned)
+        self.structure_potential = float(structure_potential)
+        self.items: list[Measured] = []
+
+    def add(self, sweep: xr.Dataset, evidence: WindowAssessment | None) -> None:
+        """Keep ``sweep``; its modes only if ``evidence`` shows both."""
+        modes = None
+        if evidence is not None and evidence.ok:
+            guess = ModeGuess.of(evidence.frequencies_hz, evidence.bandwidth_hz)
+            modes = guess if guess.usable() else None
+        self.items.append(Measured(sweep, modes))
+
+    def __len__(self) -> int:
+        return len(self.items)
+
+    def union(self) -> xr.Dataset:
+        """Every sweep as one data set over the tuned electrodes."""
+        return concat_experiments([m.data for m in self.items]).sel(electrode=self.tuned)
+
+    def has(self, bias: np.ndarray) -> bool:
+        """Some sweep was measured at ``bias`` (within :data:`SAME_V`)."""
+        return any(np.allclose(m.bias, bias, rtol=0, atol=SAME_V) for m in self.items)
+
+    def _near(self, bias: np.ndarray, radius: float) -> list[Measured]:
+        return [m for m in self.items if float(np.max(np.abs(m.bias - bias))) <= radius + SAME_V]
+
+    def near(self, bias: np.ndarray, radius: float) -> xr.Dataset:
+        """The sweeps within ``radius`` volts of ``bias`` (every electrode) as one data set
+        (every sweep if none is that near)."""
+        near = self._near(bias, radius) or self.items
+        return concat_experiments([m.data for m in near]).sel(electrode=self.tuned)
+
+    def meets_rank(self, bias: np.ndarray, radius: float, law: str) -> bool:
+        """The sweeps near ``bias`` meet the rank condition (6) for ``law``.
+
+        ``"auto"`` asks for the quadratic law's rank (a two-sided design), so that the local
+        fit can still choose.
+        """
+        near = self._near(bias, radius)
+        if not near:
+            return False
+        data = concat_experiments([m.data for m in near]).sel(electrode=self.tuned)
+        try:
+            check_rank_condition(
+                np.asarray(data["bias"].values),
+                self.structure_potential,
+                self.tuned,
+                quadratic=law != "linear",
+            )
+        except SysidError:
+            return False
+        return True
+
+    def nearest(self, bias: np.ndarray) -> Measured | None:
+        """The sweep with located modes whose bias is closest to ``bias`` (largest |Δv|)."""
+        located = [m for m in self.items if m.modes is not None]
+        if not located:
+            return None
+        return min(located, key=lambda m: float(np.max(np.abs(m.bias - bias), initial=0.0)))
+
+    def guess(
+        self, bias: np.ndarray, structure: ModelStructure, fit_with: FitWith
+    ) -> tuple[ModeGuess | None, bool]:
+        """What is known of the modes at ``bias`` (every electrode): ``(guess, scout)``.
+
+        * ``(None, False)``: nothing is known (no sweep located the modes);
+        * ``(guess, True)``: ``bias`` steps an electrode that no sweep has varied, so the
+          modes may have moved by an unknown amount: ``guess`` is the nearest sweep's modes;
+        * ``(guess, False)``: a model of every sweep so far (the linear stiffness law over the
+          electrodes they vary) predicts the modes, with
+          :data:`~sysid_core.run.lean.PREDICTION_ERROR` of the predicted move as uncertainty.
+        """
+        ref = self.nearest(bias)
+        if ref is None or ref.modes is None:
+            return None, False
+        if np.allclose(ref.bias, bias, rtol=0, atol=SAME_V):
+            return ref.modes, False
+        biases = np.array([m.bias for m in self.items])
+        names = [str(e) for e in self.items[0].data["electrode"].values]
+        varied = [
+            names[p]
+            for p in range(biases.shape[1])
+            if np.ptp(biases[:, p]) > SAME_V and names[p] in self.tuned
+        ]
+        steps = [names[p] for p in range(biases.shape[1]) if abs(bias[p] - ref.bias[p]) > SAME_V]
+        if not set(steps) <= set(varied):
+            return self._scout(bias, ref), True
+        data = concat_experiments([m.data for m in self.items]).sel(electrode=varied)
+        try:
+            check_rank_condition(np.asarray(data["bias"].values), self.structure_potential, varied)
+            linear = copy.copy(structure)
+            linear.stiffness = "linear"
+            model = fit_with(data, linear)
+            rep = model.modal([bias[names.index(e)] for e in varied])
+        except SysidError:
+            return self._scout(bias, ref), True
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bw = np.asarray(rep.frequencies_hz) / np.asarray(rep.q)
+        predicted = ModeGuess.of(rep.frequencies_hz, bw)
+        if not predicted.usable():
+            return self._scout(bias, ref), True
+        return predicted.moved_from(ref.modes), False
+
+    def _scout(self, bias: np.ndarray, ref: Measured) -> ModeGuess:
+        """``ref``'s modes, uncertain by 3 × the largest move per volt² seen so far.
+
+        The rate is the largest ``|Δf| / |Δw|`` between two sweeps with located modes that
+        differ in one electrode; electrodes of one gyro are alike, so it bounds the move of an
+        electrode not stepped yet. Without such a pair the uncertainty is 0 and
+        :func:`~sysid_core.run.lean.scout_grid` falls back to the modes' split.
+        """
+        assert ref.modes is not None
+        vg = self.structure_potential
+        located = [m for m in self.items if m.modes is not None]
+        rate = 0.0
+        for i, a in enumerate(located):
+            for b in located[i + 1 :]:
+                d = np.abs(a.bias - b.bias) > SAME_V
+                if d.sum() != 1:
+                    continue
+                p = int(np.flatnonzero(d)[0])
+                dw = abs((vg - a.bias[p]) ** 2 - (vg - b.bias[p]) ** 2)
+                assert a.modes is not None and b.modes is not None
+                move = float(np.max(np.abs(a.modes.frequencies_hz - b.modes.frequencies_hz)))
+                rate = max(rate, move / dw)
+        dw_new = float(np.max(np.abs((vg - bias) ** 2 - (vg - ref.bias) ** 2)))
+        return ModeGuess(
+            ref.modes.frequencies_hz, ref.modes.bandwidth_hz, np.full(2, 3 * rate * dw_new)
+        )

@@ -1,0 +1,254 @@
+"""Where a lean run measures: frequencies chosen from what is already known.
+
+A mode of quality factor ``Q`` at ``f`` tells its frequency and damping almost only within a
+few half-power bandwidths ``bw = f/Q`` of ``f``: the sensitivity of the response to the
+mode's frequency, ``|∂G/∂f|``, falls as ``1/Δf²`` away from it, so a point ``k`` bandwidths
+away carries about ``1/k⁴`` of the information of a point on the peak (``docs/bench-time.md``
+has the numbers). Far points are still needed, a few of them, for what varies slowly with
+frequency (the feedthrough polynomial). So a sweep of a lean run is:
+
+* the whole band at the configured resolution, when nothing is known (the run's first sweep);
+* a **scout** window around the nearest measured modes, wide enough for an electrode not
+  stepped before to move them by about their split (:data:`SCOUT_SPLITS`), at the band's
+  resolution: it only has to locate the modes;
+* otherwise a **mode grid** (:func:`mode_grid`): around each predicted mode, ``±(2 bw + 2σ)``
+  (``σ`` the prediction's uncertainty) at a step of ``bw/2`` or coarser so that no mode gets
+  more than ``2·MAX_HALF_POINTS + 1`` points (with ``σ = 0``: 7 points ``2 bw/3`` apart), plus
+  :data:`ANCHORS` far points, half on either side.
+
+A sweep whose evidence (:func:`sysid_core.run.evidence.assess_window`) does not show both modes is
+followed by the whole band at the same bias, so a wrong guess costs points, never a result.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from sysid_core.run.sweeps import MIN_POINTS, SweepPlan, grid
+from sysid_core.tuning.criteria import TuningResult
+
+__all__ = [
+    "ANCHORS",
+    "CORE_BANDWIDTHS",
+    "LOCAL_RADIUS",
+    "LOCATE_POINTS",
+    "MAX_HALF_POINTS",
+    "PREDICTION_ERROR",
+    "SCOUT_SPLITS",
+    "ModeGuess",
+    "explained_gap",
+    "locate_plan",
+    "mode_grid",
+    "predicted_uncertainty",
+    "scout_grid",
+]
+
+#: Half-width of a mode's grid, in bandwidths, when its frequency is known exactly.
+CORE_BANDWIDTHS = 2.0
+#: Points per bandwidth in a mode's grid (its finest step is ``bw / 2``).
+POINTS_PER_BANDWIDTH = 2.0
+#: At most ``2 * MAX_HALF_POINTS + 1`` points per mode: an uncertain mode gets a coarser step.
+MAX_HALF_POINTS = 3
+#: Far points of a mode grid (half on each side), for the slowly varying terms.
+ANCHORS = 4
+#: A model's predicted move of the modes is trusted to this fraction of the move.
+PREDICTION_ERROR = 0.1
+#: The first electrode stepped may move each mode by about this many splits (a miss costs a
+#: whole-band sweep).
+SCOUT_SPLITS = 0.5
+#: ... and by at least this many bandwidths.
+SCOUT_BANDWIDTHS = 10.0
+#: Most points of a lean run's whole-band sweep (it only locates the modes).
+LOCATE_POINTS = 61
+#: A model explains a verification when its modes miss the measured ones by at most this
+#: fraction of the measured split ...
+EXPLAIN_FRACTION = 0.25
+#: ... plus this much (Hz).
+EXPLAIN_FLOOR_HZ = 1e-4
+#: Sweeps within this many bias steps (the iteration's step) of the bias count as near it.
+LOCAL_RADIUS = 1.5
+
+
+@dataclass(frozen=True)
+class ModeGuess:
+    """What is known about the two modes at a bias before measuring there.
+
+    Attributes
+    ----------
+    frequencies_hz : ndarray
+        The two modal frequencies (Hz), ascending.
+    bandwidth_hz : ndarray
+        Their half-power bandwidths ``f/Q`` (Hz).
+    uncertainty_hz : ndarray
+        How far each may be from the guess (Hz; 0 for modes just measured there).
+    """
+
+    frequencies_hz: np.ndarray
+    bandwidth_hz: np.ndarray
+    uncertainty_hz: np.ndarray
+
+    @classmethod
+    def of(
+        cls,
+        frequencies_hz: np.ndarray | list[float],
+        bandwidth_hz: np.ndarray | list[float],
+        uncertainty_hz: np.ndarray | list[float] | float = 0.0,
+    ) -> ModeGuess:
+        """A guess from array-likes; a scalar uncertainty applies to both modes."""
+        f = np.sort(np.asarray(frequencies_hz, dtype=float).reshape(2))
+        bw = np.asarray(bandwidth_hz, dtype=float).reshape(2)
+        s = np.broadcast_to(np.asarray(uncertainty_hz, dtype=float), (2,)).copy()
+        return cls(f, bw, np.abs(s))
+
+    @property
+    def split_hz(self) -> float:
+        """Distance of the two modes (Hz)."""
+        return float(self.frequencies_hz[1] - self.frequencies_hz[0])
+
+    def usable(self) -> bool:
+        """Finite frequencies and positive finite bandwidths (a fit can report neither)."""
+        return bool(
+            np.all(np.isfinite(self.frequencies_hz))
+            and np.all(np.isfinite(self.bandwidth_hz) & (self.bandwidth_hz > 0))
+            and np.all(np.isfinite(self.uncertainty_hz))
+        )
+
+    def moved_from(self, reference: ModeGuess) -> ModeGuess:
+        """This guess with the uncertainty of a predicted move from ``reference``'s modes."""
+        move = np.abs(self.frequencies_hz - reference.frequencies_hz)
+        return ModeGuess(
+            self.frequencies_hz,
+            self.bandwidth_hz,
+            np.maximum(self.uncertainty_hz, PREDICTION_ERROR * move),
+        )
+
+
+def _clip(points: np.ndarray, band: tuple[float, float]) -> np.ndarray:
+    lo, hi = band
+    return points[(points >= lo) & (points <= hi)]
+
+
+def _merge(points: np.ndarray, tol: float) -> np.ndarray:
+    """Sorted points with those closer than ``tol`` to the previous kept one dropped."""
+    p = np.sort(points)
+    keep = [p[0]]
+    for x in p[1:]:
+        if x - keep[-1] > tol:
+            keep.append(x)
+    return np.array(keep)
+
+
+def anchors(f: np.ndarray, bw: np.ndarray, plan: SweepPlan) -> np.ndarray:
+    """:data:`ANCHORS` far points around two modes, inside the band, plus two between them
+    when they are far apart.
+
+    Half on either side at ``reach/2`` and ``reach`` beyond the outer modes, ``reach =
+    max(refine_span_hz/2, 10 bw)``, moved inside the band where they would leave it.
+    """
+    reach = max(plan.refine_span_hz / 2, 10 * float(np.max(bw)))
+    side = ANCHORS // 2
+    out = np.arange(1, side + 1) / side * reach
+    points = [f[0] - out, f[1] + out]
+    if f[1] - f[0] > 2 * reach:
+        points.append(f[0] + (f[1] - f[0]) * np.array([1 / 3, 2 / 3]))
+    return np.clip(np.concatenate(points), *plan.band_hz)
+
+
+def mode_grid(guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
+    """The points of a sweep around two modes whose frequencies are (roughly) known.
+
+    Around each mode ``±h`` with ``h = CORE_BANDWIDTHS·bw + 2σ``, at a step of
+    ``bw / POINTS_PER_BANDWIDTH`` or ``h / MAX_HALF_POINTS``, whichever is coarser; then the
+    :data:`ANCHORS` far points of :func:`anchors`. Everything inside the plan's band; never
+    fewer than :data:`~sysid_core.run.sweeps.MIN_POINTS` points (the step is refined until there
+    are).
+    """
+    band = plan.band_hz
+    f, bw, s = guess.frequencies_hz, guess.bandwidth_hz, guess.uncertainty_hz
+    half = CORE_BANDWIDTHS * bw + 2.0 * s
+    points_per_bw = POINTS_PER_BANDWIDTH
+    for _ in range(6):
+        parts = []
+        for fi, bi, hi in zip(f, bw, half, strict=True):
+            step = max(bi / points_per_bw, hi / MAX_HALF_POINTS)
+            k = math.ceil(hi / step - 1e-9)
+            parts.append(fi + step * np.arange(-k, k + 1))
+        core = np.concatenate(parts)
+        points = _clip(np.concatenate([core, anchors(f, bw, plan)]), band)
+        points = _merge(points, 1e-3 * float(bw.min()))
+        if points.size >= MIN_POINTS:
+            return points
+        points_per_bw *= 2
+    return np.linspace(*band, MIN_POINTS)
+
+
+def scout_grid(guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
+    """Windows that locate modes which may have moved since ``guess`` by an unknown amount.
+
+    Around each mode ``± m`` at the band's resolution, inside the band (the band itself when
+    the windows would cover most of it): ``m = σ + SCOUT_BANDWIDTHS × bw`` when the guess
+    carries an uncertainty ``σ`` (the move expected from the electrodes stepped before),
+    else ``max(SCOUT_SPLITS × split, SCOUT_BANDWIDTHS × bw)``.
+    """
+    f, bw = guess.frequencies_hz, guess.bandwidth_hz
+    sigma = float(guess.uncertainty_hz.max())
+    wide = SCOUT_BANDWIDTHS * float(bw.max())
+    m = sigma + wide if sigma > 0 else max(SCOUT_SPLITS * guess.split_hz, wide)
+    blo, bhi = plan.band_hz
+    windows = [(max(blo, float(fi) - m), min(bhi, float(fi) + m)) for fi in f]
+    if windows[1][0] <= windows[0][1]:  # overlapping: one window
+        windows = [(windows[0][0], windows[1][1])]
+    if sum(hi - lo for lo, hi in windows) >= 0.8 * (bhi - blo):
+        return plan.band()
+    points = np.concatenate([grid(lo, hi, plan.resolution_hz) for lo, hi in windows])
+    if points.size < MIN_POINTS:
+        lo, hi = windows[0][0], windows[-1][1]
+        points = np.linspace(lo, hi, MIN_POINTS)
+    return _merge(points, 1e-9 * float(f.max()))
+
+
+def predicted_uncertainty(predicted: TuningResult) -> float:
+    """How far the modes at a tuning's bias may be from its prediction (Hz).
+
+    From the answer's confidence region: the half-width of the mean frequency's interval plus
+    half the largest split in it; 0 without a region (the window then rests on the modes'
+    bandwidths, and the whole band catches a miss).
+    """
+    region = predicted.confidence
+    if region is None:
+        return 0.0
+    lo, hi = region.frequency_ci_hz
+    values = [0.5 * (hi - lo), 0.5 * float(max(region.split_ci_hz))]
+    finite = [v for v in values if np.isfinite(v)]
+    return float(sum(finite))
+
+
+def locate_plan(plan: SweepPlan, points: int = LOCATE_POINTS) -> SweepPlan:
+    """``plan`` with a whole-band sweep of at most ``points`` points.
+
+    A lean run sweeps the whole band only to locate the modes (the mode grids measure them),
+    so its step is ``resolution_hz`` or ``band / (points - 1)``, whichever is coarser; a sweep
+    that does not locate them is followed by one four times as dense, then by the band at
+    ``resolution_hz`` (each only if it has fewer points than the next).
+    """
+    lo, hi = plan.band_hz
+    step = max(plan.resolution_hz, (hi - lo) / (points - 1))
+    return dataclasses.replace(plan, resolution_hz=step)
+
+
+def explained_gap(predicted_hz: np.ndarray, measured_hz: np.ndarray) -> float | None:
+    """How far a model's modes miss measured ones (Hz), or None if the model explains them.
+
+    A model explains a verification when each of its two modes is within
+    ``EXPLAIN_FRACTION × split + EXPLAIN_FLOOR_HZ`` of the measured one: it then also predicts
+    the next small correction; otherwise its stiffness law does not hold over all the data.
+    """
+    p = np.sort(np.asarray(predicted_hz, dtype=float))
+    m = np.sort(np.asarray(measured_hz, dtype=float))
+    gap = float(np.max(np.abs(p - m)))
+    allowed = EXPLAIN_FRACTION * float(m[1] - m[0]) + EXPLAIN_FLOOR_HZ
+    return None if gap <= allowed else gap

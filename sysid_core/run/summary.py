@@ -1,0 +1,132 @@
+"""What a tuning run reports: each iteration's verification, record, and the run's summary.
+
+:class:`RunSummary` is what ``summary.json`` holds and the ``sysid tune --json`` line shows
+(without ``history``): the keys of the public contract (``docs/contracts.md``) and more.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from sysid_core.run.verification import Verification
+from sysid_core.tuning.criteria import Goal
+
+__all__ = ["CONFIDENCE_KEYS", "IterationRecord", "RunSummary", "status_line"]
+
+#: The confidence region's keys in ``summary.json`` and the ``--json`` line.
+CONFIDENCE_KEYS = ("confidence_level", "bias_ci", "split_ci_hz", "frequency_ci_hz")
+
+
+@dataclass
+class IterationRecord:
+    """What one iteration did (``points``: frequency points measured by the run so far)."""
+
+    iteration: int
+    experiments: list[list[float]]
+    tuning: dict[str, Any]
+    verified_bias: list[float]
+    verification: str
+    measured_split_hz: float | None
+    measured_frequency_hz: float | None
+    measured_frequencies_hz: list[float] | None
+    goals: list[dict[str, Any]]
+    evidence: list[dict[str, Any]]
+    gamma: float
+    fit_time_s: float
+    points: int = 0
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-friendly form."""
+        return dict(self.__dict__)
+
+
+@dataclass
+class RunSummary:
+    """The result of a tuning run (what ``summary.json`` and ``--json`` report).
+
+    ``split_hz`` and ``frequency_hz`` are those of the last verification, or None when it did
+    not verify them; ``converged`` is true only when the last verification was verified and
+    every goal in ``goals`` is met; ``status`` says so in one sentence. ``notes`` lists what
+    the identification fits found suspicious (:func:`sysid_core.identification.fitting.check_fit`),
+    e.g. modes of a stepped experiment outside its window. ``confidence`` holds the last answer's
+    confidence region (:meth:`sysid_core.tuning.criteria.ConfidenceRegion.as_dict`:
+    ``confidence_level``, ``bias_ci``, ``split_ci_hz``, ``frequency_ci_hz``), or None when the fit
+    states no covariance (``minimax``); :meth:`as_dict` puts its keys at the top level (None when
+    missing).
+    """
+
+    device: str
+    bias: list[float]
+    split_hz: float | None
+    frequency_hz: float | None
+    iterations: int
+    experiments: int
+    converged: bool
+    verified: bool
+    status: str
+    goals: list[dict[str, Any]]
+    electrodes: list[str]
+    tuned: list[str]
+    history: list[IterationRecord] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    out: str = ""
+    confidence: dict[str, Any] | None = None
+    points: int = 0
+    bench_time_s: float | None = None
+    dwell_s: float | None = None
+    dwell_source: str | None = None
+
+    @property
+    def paths(self) -> dict[str, Any]:
+        """The run's files: ``out``, ``summary``, ``config``, ``bias_path`` (the plot, if
+        written, in whichever format) and ``iterations`` (one folder per iteration, holding its
+        measurements, model and plots)."""
+        out = Path(self.out)
+        plots = sorted(out.glob("bias_path.*"))
+        return {
+            "out": out,
+            "summary": out / "summary.json",
+            "config": out / "config.json",
+            "bias_path": plots[0] if plots else None,
+            "iterations": [out / f"iter{r.iteration:02d}" for r in self.history],
+        }
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-friendly form."""
+        return {
+            "device": self.device,
+            "bias": self.bias,
+            "split_hz": self.split_hz,
+            "frequency_hz": self.frequency_hz,
+            "iterations": self.iterations,
+            "experiments": self.experiments,
+            "points": self.points,
+            "bench_time_s": self.bench_time_s,
+            "dwell_s": self.dwell_s,
+            "dwell_source": self.dwell_source,
+            "converged": self.converged,
+            "verified": self.verified,
+            "status": self.status,
+            "goals": self.goals,
+            "electrodes": self.electrodes,
+            "tuned": self.tuned,
+            **{key: (self.confidence or {}).get(key) for key in CONFIDENCE_KEYS},
+            "out": self.out,
+            "notes": self.notes,
+            "history": [r.as_dict() for r in self.history],
+        }
+
+
+def status_line(it: int, ver: Verification, goals: list[Goal], converged: bool) -> str:
+    """One sentence on how a run stands after iteration ``it``."""
+    if converged:
+        return f"converged after {it} iteration(s): {ver.describe()}; goals met: " + ", ".join(
+            str(g) for g in goals
+        )
+    if not ver.verified:
+        return f"NOT converged after {it} iteration(s): not verified, {ver.describe()}"
+    return f"NOT converged after {it} iteration(s): {ver.describe()}; goals not met: " + ", ".join(
+        str(g) for g in goals if not g.met
+    )

@@ -1,0 +1,212 @@
+"""Which biases and frequencies a tuning run measures, and the limits checked before it starts.
+
+* :func:`design_experiments`: eq. (18), the start bias and one electrode stepped at a time.
+* :func:`grid`: an evenly spaced sweep over ``[lo, hi]``.
+* :class:`SweepPlan`: the identification, refinement and verification sweeps of a run, from the
+  ``[experiment]`` table and the device's band, each checked against :data:`MIN_POINTS` and the
+  ``max_points`` limit before anything is measured.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from sysid_core.errors import ConfigError
+from sysid_core.run.config import ExperimentConfig
+
+__all__ = ["MIN_POINTS", "SweepPlan", "design_experiments", "grid"]
+
+#: Fewest points in any sweep: a single-bias fit has 25 unknowns (8 real equations per point),
+#: and a resonance needs several points to show its shape.
+MIN_POINTS = 11
+#: Most points of a verification window (wider windows get a coarser step).
+MAX_WINDOW_POINTS = 401
+
+
+def design_experiments(
+    start: np.ndarray,
+    tuned_index: Sequence[int],
+    step: float,
+    limits: tuple[float, float],
+    two_sided: bool = False,
+) -> np.ndarray:
+    """Eq. (18): the start bias and one electrode stepped at a time (down if up would leave).
+
+    ``two_sided``: each electrode stepped up and down in turn (``2 n + 1`` experiments), what
+    the quadratic stiffness law needs; where one side would leave the limits, the electrode
+    takes a second step on the other side (``+step, +2 step``) instead.
+    """
+    low, high = limits
+    design = [np.array(start, dtype=float)]
+    for p in tuned_index:
+        base = float(start[p])
+        if two_sided:
+            if base - step >= low and base + step <= high:
+                offsets = [step, -step]
+            elif base + 2 * step <= high:
+                offsets = [step, 2 * step]
+            elif base - 2 * step >= low:
+                offsets = [-step, -2 * step]
+            else:
+                offsets = []
+        elif base + step <= high:
+            offsets = [step]
+        elif base - step >= low:
+            offsets = [-step]
+        else:
+            offsets = []
+        if not offsets:
+            raise ConfigError(
+                f"[experiment] bias_step = {step} V does not fit inside the bias limits "
+                f"{limits} V{' (two-sided: twice the step)' if two_sided else ''}; use a "
+                "smaller step"
+            )
+        for off in offsets:
+            b = np.array(start, dtype=float)
+            b[p] += off
+            design.append(b)
+    return np.array(design)
+
+
+def n_points(lo: float, hi: float, step: float) -> int:
+    """Points of an evenly spaced sweep from ``lo`` to at most ``hi`` with ``step``."""
+    return math.floor((hi - lo) / step + 1e-9) + 1
+
+
+def grid(lo: float, hi: float, step: float) -> np.ndarray:
+    """``lo, lo + step, ...`` up to ``hi`` (inclusive within rounding)."""
+    return lo + step * np.arange(n_points(lo, hi, step))
+
+
+@dataclass(frozen=True)
+class SweepPlan:
+    """The sweeps of a run (Hz).
+
+    Parameters
+    ----------
+    band_hz : (float, float)
+        The identification band (the ``[experiment] band_hz``, or the device's band).
+    resolution_hz : float
+        Step of the band sweep.
+    refine_span_hz, refine_resolution_hz : float
+        Span and step of later identifications around the measured modes (span 0: the band).
+    verify_span_hz, verify_resolution_hz : float
+        Span and step of the verification window around the predicted modes.
+    max_points : int
+        Most points of any sweep.
+    """
+
+    band_hz: tuple[float, float]
+    resolution_hz: float
+    refine_span_hz: float
+    refine_resolution_hz: float
+    verify_span_hz: float
+    verify_resolution_hz: float
+    max_points: int
+
+    @classmethod
+    def from_config(cls, exp: ExperimentConfig, device_band_hz: Sequence[float]) -> SweepPlan:
+        """The plan of an ``[experiment]`` table for a device with ``band_hz``, checked."""
+        band = (float(device_band_hz[0]), float(device_band_hz[1]))
+        return cls(
+            band_hz=exp.band_hz if exp.band_hz is not None else band,
+            resolution_hz=exp.resolution_hz,
+            refine_span_hz=exp.refine_span_hz,
+            refine_resolution_hz=exp.refine_resolution_hz,
+            verify_span_hz=exp.verify_span_hz,
+            verify_resolution_hz=exp.verify_resolution_hz,
+            max_points=exp.max_points,
+        ).check(band)
+
+    def check(self, device_band_hz: tuple[float, float]) -> SweepPlan:
+        """Check the plan against the device's band and the point limits; return it.
+
+        Raises
+        ------
+        ConfigError
+            Naming the ``[experiment]`` key and the fix.
+        """
+        lo, hi = self.band_hz
+        dlo, dhi = device_band_hz
+        if hi <= dlo or lo >= dhi:
+            raise ConfigError(
+                f"[experiment] band_hz = [{lo}, {hi}] Hz does not overlap the device's band "
+                f"[{dlo}, {dhi}] Hz, where its modes are; use a band inside it (or leave "
+                "band_hz out to use the device's)"
+            )
+        sweeps = [("band_hz / resolution_hz", "resolution_hz", hi - lo, self.resolution_hz)]
+        if self.refine_span_hz > 0:
+            span = min(self.refine_span_hz, hi - lo)
+            sweeps.append(
+                (
+                    "refine_span_hz / refine_resolution_hz",
+                    "refine_resolution_hz",
+                    span,
+                    self.refine_resolution_hz,
+                )
+            )
+        sweeps.append(
+            (
+                "verify_span_hz / verify_resolution_hz",
+                "verify_resolution_hz",
+                self.verify_span_hz,
+                self.verify_resolution_hz,
+            )
+        )
+        for what, key, span, step in sweeps:
+            n = n_points(0.0, span, step)
+            if n > self.max_points:
+                raise ConfigError(
+                    f"[experiment] {what} = {span:g} / {step:g} Hz gives {n} points per sweep, "
+                    f"more than max_points = {self.max_points}; use a coarser {key} (or raise "
+                    "max_points if you really mean it)"
+                )
+            if key == "resolution_hz" and n < MIN_POINTS:
+                raise ConfigError(
+                    f"[experiment] {what} = {span:g} / {step:g} Hz gives {n} point(s) per sweep; "
+                    f"a fit needs at least {MIN_POINTS}: use a finer {key} or a wider band"
+                )
+            if key == "refine_resolution_hz" and n < MIN_POINTS:
+                raise ConfigError(
+                    f"[experiment] {what} = {span:g} / {step:g} Hz gives {n} point(s) per sweep; "
+                    f"a fit needs at least {MIN_POINTS}: use a finer {key} or a wider span"
+                )
+        return self
+
+    def band(self) -> np.ndarray:
+        """The band sweep."""
+        return grid(*self.band_hz, self.resolution_hz)
+
+    def refine(self, center_hz: float | None, split_hz: float = 0.0) -> np.ndarray:
+        """The identification sweep: the band, or a window around ``center_hz``.
+
+        The window is wide enough for both measured modes with a margin
+        (``max(refine_span/2, 1.5 split)`` each side), clipped to the band; if its step would
+        give more than ``max_points``, the step is coarsened.
+        """
+        if center_hz is None or self.refine_span_hz <= 0:
+            return self.band()
+        blo, bhi = self.band_hz
+        half = max(self.refine_span_hz / 2, 1.5 * split_hz)
+        lo, hi = max(blo, center_hz - half), min(bhi, center_hz + half)
+        if hi - lo < self.refine_span_hz / 2:  # the modes sit at the band's edge
+            return self.band()
+        step = max(self.refine_resolution_hz, (hi - lo) / (self.max_points - 1))
+        return grid(lo, hi, step)
+
+    def window(self, center_hz: float, span_hz: float, step_hz: float) -> np.ndarray:
+        """A verification window: ``span_hz`` around ``center_hz`` inside the band.
+
+        At least 21 points; at most :data:`MAX_WINDOW_POINTS` (the step is coarsened).
+        """
+        blo, bhi = self.band_hz
+        lo, hi = max(center_hz - span_hz / 2, blo), min(center_hz + span_hz / 2, bhi)
+        if hi <= lo:
+            lo, hi = blo, bhi
+        step = max(step_hz, (hi - lo) / (MAX_WINDOW_POINTS - 1))
+        n = max(round((hi - lo) / step) + 1, 21)
+        return np.linspace(lo, hi, n)

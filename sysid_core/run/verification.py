@@ -1,0 +1,176 @@
+"""Step 4 of the paper's loop, with evidence: verify a tuning by measuring at its bias.
+
+:func:`verify` runs the sweeps in order: the window around the predicted modes (skipped when
+the predicted split is wider than it); if it shows both modes but too coarsely (a lean run's
+window around an uncertain prediction), a fine window around them; if it fails, the whole
+band, whose fit locates the modes; then, if they are close, a narrow window around the located
+modes. Each sweep is judged by
+:func:`sysid_core.run.evidence.assess_window`. A split from a whole-band sweep is reported as
+*located* (coarse); only a narrow window that passes every check *verifies* a split, and only a
+verified split can make a run converge.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import xarray as xr
+
+from sysid_core.identification.objective import Progress
+from sysid_core.model.fitted import FittedModel
+from sysid_core.model.modal import ModalReport
+from sysid_core.run.evidence import WindowAssessment
+from sysid_core.run.sweeps import SweepPlan
+from sysid_core.tuning.criteria import TuningResult
+
+__all__ = ["Sweep", "Verification", "Window", "verify"]
+
+#: Measures a sweep at the verified bias and fits it: ``(frequencies, file name, whole band?)``
+#: to ``(sweep, single-bias model, evidence)``.
+Sweep = Callable[[np.ndarray, str, bool], tuple[xr.Dataset, FittedModel, WindowAssessment]]
+#: Chooses a window's frequencies: ``(center, split, around a prediction?)`` to frequencies.
+Window = Callable[[float, float, bool], np.ndarray]
+
+
+@dataclass
+class Verification:
+    """What the verification of one iteration established.
+
+    Attributes
+    ----------
+    status : str
+        ``"verified"`` (a narrow window showed both modes: the split is measured),
+        ``"located"`` (only a whole-band sweep found them: the split is approximate) or
+        ``"failed"`` (no sweep showed both modes).
+    frequencies_hz : ndarray or None
+        The measured (or located) modal frequencies.
+    windows : list of WindowAssessment
+        Every sweep of the verification with its evidence.
+    sweep : xarray.Dataset
+        The last sweep.
+    model : FittedModel
+        The single-bias model of the last sweep.
+    """
+
+    status: str
+    frequencies_hz: np.ndarray | None
+    windows: list[WindowAssessment]
+    sweep: xr.Dataset
+    model: FittedModel
+
+    @property
+    def verified(self) -> bool:
+        """Both modes were seen in a narrow window."""
+        return self.status == "verified"
+
+    @property
+    def split_hz(self) -> float | None:
+        """The measured split, or None when no sweep showed both modes."""
+        f = self.frequencies_hz
+        return None if f is None else float(f[1] - f[0])
+
+    @property
+    def frequency_hz(self) -> float | None:
+        """Mean measured modal frequency, or None."""
+        return None if self.frequencies_hz is None else float(np.mean(self.frequencies_hz))
+
+    def describe(self) -> str:
+        """One line for people."""
+        f, split = self.frequencies_hz, self.split_hz
+        if self.status == "verified":
+            assert split is not None  # "verified" and "located" always come with frequencies
+            return f"measured split {split * 1e3:.3g} mHz at {self.frequency_hz:.3f} Hz"
+        if self.status == "located":
+            assert f is not None
+            return (
+                f"modes located by a whole-band sweep near {f[0]:.2f} and {f[1]:.2f} Hz "
+                f"(split about {split:.3g} Hz, not verified by a narrow window)"
+            )
+        return "no sweep showed both modes: " + self.windows[-1].failures()
+
+
+def verify(
+    predicted_modes: ModalReport,
+    predicted: TuningResult,
+    plan: SweepPlan,
+    sweep: Sweep,
+    say: Progress,
+    lean: Window | None = None,
+) -> Verification:
+    """Verify a tuning at its bias with evidence (see the module docstring).
+
+    Parameters
+    ----------
+    predicted_modes : ModalReport
+        The identified model's modes at the bias (their bandwidths size the first window).
+    predicted : TuningResult
+        The criterion's answer (predicted frequencies and split).
+    plan : SweepPlan
+        The run's sweeps (span, resolution, band).
+    sweep : callable
+        Measures and fits one sweep (see :data:`Sweep`).
+    say : callable
+        Receives progress lines.
+    lean : callable, optional
+        Chooses the windows' points instead of the plan's even grid (a lean run's
+        :func:`~sysid_core.run.lean.mode_grid`): ``(center, split, predicted)`` to frequencies,
+        ``predicted`` false for the window around modes a whole-band sweep located.
+    """
+    rep = predicted_modes
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bw = np.asarray(rep.frequencies_hz) / np.asarray(rep.q)
+    bw_min = float(np.min(bw)) if np.all(np.isfinite(bw) & (bw > 0)) else np.inf
+    bw_max = float(np.max(bw)) if np.isfinite(bw_min) else 0.0
+
+    def window(center: float, split: float, predicted: bool = True) -> np.ndarray:
+        if lean is not None:
+            return lean(center, split, predicted)
+        span = max(plan.verify_span_hz, 2 * split + 6 * bw_max)
+        return plan.window(center, span, min(plan.verify_resolution_hz, bw_min))
+
+    windows: list[WindowAssessment] = []
+    if predicted.split_hz < plan.verify_span_hz:
+        freqs = window(predicted.frequency_hz, predicted.split_hz)
+        swept, vmodel, ev = sweep(freqs, "verify.nc", False)
+        windows.append(ev)
+        if ev.ok:
+            return Verification("verified", ev.frequencies_hz, windows, swept, vmodel)
+        if ev.failed_only("resolved"):
+            # a coarse window (an uncertain prediction) found both modes: a fine one around them
+            say(
+                f"verification: modes found near {ev.frequencies_hz[0]:.3f} / "
+                f"{ev.frequencies_hz[1]:.3f} Hz by a coarse window; measuring a fine one"
+            )
+            freqs = window(ev.center_hz, ev.split_hz, False)
+            swept2, vmodel2, ev2 = sweep(freqs, "verify-fine.nc", False)
+            windows.append(ev2)
+            if ev2.ok:
+                return Verification("verified", ev2.frequencies_hz, windows, swept2, vmodel2)
+        say(
+            "verification: the window around the predicted modes does not show both modes "
+            f"({ev.failures()}); sweeping the whole band to locate them"
+        )
+    else:  # far from a tuning even by the model: only locate the modes
+        say(
+            f"verification: predicted split {predicted.split_hz:.3g} Hz; sweeping the whole "
+            "band to locate the modes"
+        )
+    swept, vmodel, ev = sweep(plan.band(), "verify-band.nc", True)
+    windows.append(ev)
+    if not ev.ok:
+        return Verification("failed", None, windows, swept, vmodel)
+    located = ev.frequencies_hz
+    if ev.split_hz >= plan.verify_span_hz:
+        return Verification("located", located, windows, swept, vmodel)
+    say(
+        f"verification: modes located near {located[0]:.3f} / {located[1]:.3f} Hz; "
+        "measuring a window around them"
+    )
+    freqs = window(ev.center_hz, ev.split_hz, False)
+    swept2, vmodel2, ev2 = sweep(freqs, "verify-2.nc", False)
+    windows.append(ev2)
+    if ev2.ok:
+        return Verification("verified", ev2.frequencies_hz, windows, swept2, vmodel2)
+    return Verification("located", located, windows, swept, vmodel)

@@ -1,0 +1,206 @@
+"""How sure a tuning answer is: 95 % regions for its bias, split and frequency.
+
+The fitted model's stiffness parameters (``M``, ``K0``, ``K_p``) come with a covariance
+(:mod:`sysid_core.identification.covariance`, least-squares fits). :func:`confidence_region` draws
+models from that Gaussian and asks each of them two questions about the answer ``b̂`` of a criterion:
+
+* **split and frequency at b̂.** With ``K̃ = M^{-1/2} K(ŵ) M^{-1/2} = t I + [[d1, d2], [d2, -d1]]``
+  the modes are ``sqrt(t ± |d|) / 2π``: the split depends on the deviatoric part ``d`` only.
+  The region of ``d`` is the ellipse ``(d - d̂)ᵀ Σ_d⁻¹ (d - d̂) ≤ χ²₂(level)`` (``Σ_d`` from
+  the draws); ``split_ci_hz`` is the range of splits over it (its lower end is 0 when the
+  ellipse holds a degenerate model). ``frequency_ci_hz`` is the central interval of the mean
+  modal frequency over the draws.
+* **where would it be degenerate.** ``d`` is affine in the squared potentials ``w``, so each
+  drawn model's degenerate point nearest ``ŵ`` (the smallest change of ``w``) is one
+  least-squares step, exact with two tuned electrodes: ``δw = -D⁺ d`` with ``D`` the
+  deviatoric parts of the drawn ``K̃_p``. For the ``target`` criterion the trace condition
+  ``t = (2π f_target)²`` is added. ``bias_ci`` holds, per tuned electrode, the central
+  interval of the drawn models' biases at level ``1 - (1 - level) / n`` (Bonferroni over the
+  ``n`` tuned electrodes, so that the box holds every electrode together with at least
+  ``level``); an electrode that is not tuned keeps its bias.
+
+The draws use a fixed seed: the same model and answer give the same region.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sysid_core.conic.program import sym
+from sysid_core.model.fitted import FittedModel
+from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion, TuningResult
+
+__all__ = ["DEFAULT_LEVEL", "DEFAULT_SAMPLES", "confidence_region", "stiffness_vector"]
+
+#: Confidence level of the regions a run reports.
+DEFAULT_LEVEL = 0.95
+#: Models drawn per region.
+DEFAULT_SAMPLES = 4000
+_TWO_PI = 2.0 * np.pi
+
+
+def stiffness_vector(model: FittedModel) -> np.ndarray:
+    """The model's stiffness parameters in
+    :func:`sysid_core.identification.covariance.stiffness_map` order."""
+
+    def entries(x: np.ndarray) -> list[float]:
+        return [float(x[0, 0]), float(x[0, 1]), float(x[1, 1])]
+
+    values = entries(model.M) + entries(model.K0)
+    for kp in model.Kp:
+        values += entries(kp)
+    return np.array(values)
+
+
+def _normalise(m: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """``M^{-1/2} K M^{-1/2}`` for stacks ``m`` ``(S, 2, 2)`` and ``k`` ``(S, ..., 2, 2)``."""
+    lam, vec = np.linalg.eigh(m)
+    root = 1.0 / np.sqrt(np.clip(lam, 1e-12, None))
+    mh = np.einsum("sij,sj,skj->sik", vec, root, vec)
+    extra = k.ndim - 3
+    mh_b = mh.reshape(mh.shape[0], *([1] * extra), 2, 2)
+    return mh_b @ k @ mh_b
+
+
+def _trace_dev(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``t`` and ``d = (d1, d2)`` of symmetric 2×2 matrices (last two axes)."""
+    t = 0.5 * (k[..., 0, 0] + k[..., 1, 1])
+    d = np.stack([0.5 * (k[..., 0, 0] - k[..., 1, 1]), k[..., 0, 1]], axis=-1)
+    return t, d
+
+
+def _split_hz(t: float | np.ndarray, r: float | np.ndarray) -> np.ndarray:
+    """Split of modes ``sqrt(t ± r) / 2π`` (Hz)."""
+    r = np.minimum(r, t)
+    return np.asarray((np.sqrt(t + r) - np.sqrt(np.clip(t - r, 0.0, None))) / _TWO_PI)
+
+
+def _split_and_frequency(
+    t: np.ndarray, d: np.ndarray, t0: float, d0: np.ndarray, level: float
+) -> tuple[tuple[float, float], tuple[float, float]]:
+    """The split range over the ``level`` ellipse of the drawn ``d`` (centred on the model's
+    ``d0``) and the central interval of the drawn mean modal frequency (Hz)."""
+    cov_d = np.cov(d, rowvar=False)
+    q = -2.0 * math.log(1.0 - level)  # chi-square quantile, 2 degrees of freedom
+    lam_d, vec_d = np.linalg.eigh(cov_d)
+    lam_d = np.clip(lam_d, 1e-300, None)
+    angle = np.linspace(0.0, 2 * np.pi, 721)
+    unit = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    ring = d0 + math.sqrt(q) * (unit * np.sqrt(lam_d)) @ vec_d.T
+    radius = np.hypot(ring[:, 0], ring[:, 1])
+    inside = float(np.sum((vec_d.T @ d0) ** 2 / lam_d)) <= q
+    split_ci = (
+        0.0 if inside else float(_split_hz(t0, radius.min())),
+        float(_split_hz(t0, radius.max())),
+    )
+    r = np.hypot(d[:, 0], d[:, 1])
+    f_mean = 0.5 * (np.sqrt(np.clip(t + r, 0, None)) + np.sqrt(np.clip(t - r, 0, None))) / _TWO_PI
+    alpha = 1.0 - level
+    f_lo, f_hi = np.quantile(f_mean, [alpha / 2, 1 - alpha / 2])
+    return split_ci, (float(f_lo), float(f_hi))
+
+
+def confidence_region(
+    model: FittedModel,
+    result: TuningResult,
+    space: BiasSpace,
+    level: float = DEFAULT_LEVEL,
+    samples: int = DEFAULT_SAMPLES,
+    seed: int = 0,
+    applied_bias: np.ndarray | None = None,
+) -> ConfidenceRegion | None:
+    """The region of ``result`` (a criterion's answer for ``model`` in ``space``).
+
+    Returns ``None`` when the model has no covariance (a ``minimax`` fit).
+
+    Parameters
+    ----------
+    model : FittedModel
+        The model the criterion tuned; its electrodes are ``space.tuned``.
+    result : TuningResult
+        The answer; a ``target_hz`` in its ``info`` adds the frequency condition.
+    space : BiasSpace
+        The electrodes, limits and structure potential of the tuning.
+    level : float
+        Confidence level in (0, 1).
+    samples : int
+        Models drawn.
+    seed : int
+        Seed of the draws.
+    applied_bias : ndarray, optional
+        Every electrode's bias as the device will really apply it (a DAC's nearest code), if
+        it says; the split and frequency ranges are for that bias (the bias box is not: it is
+        about the true degenerate bias).
+    """
+    if model.stiffness_factor is None:
+        return None
+    if not 0.0 < level < 1.0:
+        raise ValueError(f"level must be in (0, 1), got {level}")
+    v_gyro = space.structure_potential
+    index = space.index
+    bias = np.asarray(result.bias, dtype=float)
+    w_hat = (v_gyro - bias[index]) ** 2
+    n_t = len(index)
+    if list(model.electrodes) != list(space.tuned):
+        raise ValueError(
+            f"the model's electrodes {model.electrodes} are not the tuned ones {space.tuned}"
+        )
+    n_e = n_t
+
+    # Draws of the stiffness parameters.
+    phi = stiffness_vector(model)
+    factor = model.stiffness_factor
+    z = np.random.default_rng(seed).standard_normal((samples, factor.shape[1]))
+    draws = phi + z @ factor.T
+    m = sym(draws[:, 0:3])
+    k0 = sym(draws[:, 3:6])
+    kp = sym(draws[:, 6:].reshape(samples, n_e, 3))  # (S, n_e, 2, 2)
+    t, d = _trace_dev(_normalise(m, k0 + np.einsum("p,sp...->s...", w_hat, kp)))
+    tp, dp = _trace_dev(_normalise(m, kp))  # (S, n_e), (S, n_e, 2)
+    t_hat, d_hat = _trace_dev(_normalise(model.M[None], model.stiffness_w(w_hat)[None]))
+    t0, d0 = float(t_hat[0]), d_hat[0]
+
+    # Where the split is predicted: the applied bias if the device says, and the ellipse of d.
+    if applied_bias is None:
+        t_at, d_at, t_at0, d_at0 = t, d, t0, d0
+    else:
+        w_at = (v_gyro - np.asarray(applied_bias, dtype=float)[index]) ** 2
+        t_at, d_at = _trace_dev(_normalise(m, k0 + np.einsum("p,sp...->s...", w_at, kp)))
+        t_a, d_a = _trace_dev(_normalise(model.M[None], model.stiffness_w(w_at)[None]))
+        t_at0, d_at0 = float(t_a[0]), d_a[0]
+    split_ci, (f_lo, f_hi) = _split_and_frequency(t_at, d_at, t_at0, d_at0, level)
+
+    # Each draw's degenerate (or on-target) point nearest w_hat.
+    target = result.info.get("target_hz")
+    jac = np.transpose(dp, (0, 2, 1))  # (S, 2, n_e)
+    rhs = -d
+    if target is not None:
+        jac = np.concatenate([jac, tp[:, None, :]], axis=1)
+        rhs = np.concatenate([rhs, ((_TWO_PI * float(target)) ** 2 - t)[:, None]], axis=1)
+    step = np.einsum("sij,sj->si", np.linalg.pinv(jac), rhs)
+    # The answer's own step (nonzero where the conditions cannot all hold: an unreachable
+    # goal, a target with two electrodes) is the criterion's compromise, not uncertainty.
+    own_jac = np.transpose(_trace_dev(_normalise(model.M[None], model.Kp[None]))[1][0])
+    own_rhs = -d0
+    if target is not None:
+        own_tp = _trace_dev(_normalise(model.M[None], model.Kp[None]))[0][0]
+        own_jac = np.vstack([own_jac, own_tp[None, :]])
+        own_rhs = np.append(own_rhs, (_TWO_PI * float(target)) ** 2 - t0)
+    step = step - np.linalg.pinv(own_jac) @ own_rhs
+    w = np.clip(w_hat + step, 0.0, None)
+    sign = np.sign(v_gyro - bias[index])
+    sign[sign == 0] = 1.0
+    bias_draws = v_gyro - sign * np.sqrt(w)
+    a = (1.0 - level) / n_t
+    lo, hi = np.quantile(bias_draws, [a / 2, 1 - a / 2], axis=0)
+    box = np.column_stack([bias, bias])
+    box[index, 0], box[index, 1] = lo, hi
+    return ConfidenceRegion(
+        level=level,
+        bias_ci=box,
+        split_ci_hz=split_ci,
+        frequency_ci_hz=(f_lo, f_hi),
+        samples=samples,
+    )
