@@ -6,14 +6,19 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from sysid_core.run.verification import Verification
-from sysid_core.tuning.criteria import Goal
+import numpy as np
+import xarray as xr
 
-__all__ = ["CONFIDENCE_KEYS", "IterationRecord", "RunSummary", "status_line"]
+from sysid_core.model.fitted import FittedModel
+from sysid_core.run.verification import Verification
+from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion, Goal, TuningResult
+
+__all__ = ["CONFIDENCE_KEYS", "IterationRecord", "RunSummary", "status_line", "summarize"]
 
 #: The confidence region's keys in ``summary.json`` and the ``--json`` line.
 CONFIDENCE_KEYS = ("confidence_level", "bias_ci", "split_ci_hz", "frequency_ci_hz")
@@ -36,6 +41,35 @@ class IterationRecord:
     gamma: float
     fit_time_s: float
     points: int = 0
+
+    @classmethod
+    def of(
+        cls,
+        it: int,
+        ds: xr.Dataset,
+        model: FittedModel,
+        result: TuningResult,
+        bias: np.ndarray,
+        ver: Verification,
+        goals: list[Goal],
+    ) -> IterationRecord:
+        """The record of iteration ``it``: its data, model, answer and verification."""
+        return cls(
+            iteration=it,
+            experiments=ds["bias"].values.tolist(),
+            tuning=result.as_dict(),
+            verified_bias=bias.tolist(),
+            verification=ver.status,
+            measured_split_hz=ver.split_hz,
+            measured_frequency_hz=ver.frequency_hz,
+            measured_frequencies_hz=None
+            if ver.frequencies_hz is None
+            else [float(x) for x in ver.frequencies_hz],
+            goals=[g.as_dict() for g in goals],
+            evidence=[w.as_dict() for w in ver.windows],
+            gamma=model.gamma,
+            fit_time_s=float(model.meta["fit_time_s"]),
+        )
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-friendly form."""
@@ -77,6 +111,25 @@ class RunSummary:
     bench_time_s: float | None = None
     dwell_s: float | None = None
     dwell_source: str | None = None
+
+    @classmethod
+    def start(cls, device: str, bias: np.ndarray, space: BiasSpace, out: str) -> RunSummary:
+        """The summary of a run that has not run an iteration yet."""
+        return cls(
+            device=device,
+            bias=bias.tolist(),
+            split_hz=None,
+            frequency_hz=None,
+            iterations=0,
+            experiments=0,
+            converged=False,
+            verified=False,
+            status="not started",
+            goals=[],
+            electrodes=list(space.electrodes),
+            tuned=list(space.tuned),
+            out=out,
+        )
 
     @property
     def paths(self) -> dict[str, Any]:
@@ -129,4 +182,46 @@ def status_line(it: int, ver: Verification, goals: list[Goal], converged: bool) 
         return f"NOT converged after {it} iteration(s): not verified, {ver.describe()}"
     return f"NOT converged after {it} iteration(s): {ver.describe()}; goals not met: " + ", ".join(
         str(g) for g in goals if not g.met
+    )
+
+
+def summarize(
+    before: RunSummary,
+    history: list[IterationRecord],
+    ver: Verification,
+    goals: list[Goal],
+    converged: bool,
+    *,
+    measurements: int,
+    points: int,
+    dwell: tuple[float | None, str | None],
+    confidence: ConfidenceRegion | None,
+    notes: list[str],
+) -> RunSummary:
+    """The run's summary after the last iteration of ``history`` (a new object).
+
+    ``ver`` and ``goals`` are that iteration's verification and goals, ``dwell`` the seconds
+    per point and where they come from (:func:`sysid_core.run.benchtime.dwell`): the bench
+    time is ``points × dwell``.
+    """
+    last = history[-1]
+    dwell_s, dwell_source = dwell
+    return dataclasses.replace(
+        before,
+        bias=list(last.verified_bias),
+        split_hz=ver.split_hz,
+        frequency_hz=ver.frequency_hz,
+        iterations=last.iteration,
+        experiments=measurements,
+        points=points,
+        dwell_s=dwell_s,
+        dwell_source=dwell_source,
+        bench_time_s=None if dwell_s is None else points * dwell_s,
+        converged=converged,
+        verified=ver.verified,
+        goals=[g.as_dict() for g in goals],
+        confidence=None if confidence is None else confidence.as_dict(),
+        status=status_line(last.iteration, ver, goals, converged),
+        history=list(history),
+        notes=list(notes),
     )

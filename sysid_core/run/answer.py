@@ -1,0 +1,154 @@
+"""Step 3 of a run: from a fitted model to the bias applied next, in one place.
+
+:func:`answer` solves the criterion (a quadratic law by repeated linearization), continues from
+the best reachable bias when the model's "unreachable" may be its extrapolation, moves the
+answer to the DAC code the model predicts best, checks the bias against the device's limits and
+attaches the answer's confidence region.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from sysid_core.device.measuring import GuardedDevice, applied_bias, check_bias
+from sysid_core.errors import UnreachableTuningError
+from sysid_core.model.fitted import FittedModel
+from sysid_core.run.dac import best_code
+from sysid_core.tuning.confidence import confidence_region
+from sysid_core.tuning.criteria import (
+    BiasSpace,
+    TuningCriterion,
+    TuningResult,
+    frequencies_from_w,
+    solve_criterion,
+)
+
+__all__ = ["Answer", "answer", "apply_best_code", "best_effort"]
+
+
+@dataclass(frozen=True)
+class Answer:
+    """An iteration's answer: what is applied and what it came from.
+
+    Attributes
+    ----------
+    result : TuningResult
+        The criterion's answer at the bias that will be applied (the DAC code the model
+        predicts best), with its confidence region.
+    bias : ndarray
+        Every electrode's bias to apply next, checked against the device's limits.
+    moved : bool
+        The answer is a move to the best reachable bias (the model found its goal
+        unreachable; a model identified there decides).
+    """
+
+    result: TuningResult
+    bias: np.ndarray
+    moved: bool
+
+
+def answer(
+    criterion: TuningCriterion,
+    model: FittedModel,
+    space: BiasSpace,
+    device: GuardedDevice,
+    it: int,
+    *,
+    bias_step: float,
+    last_iteration: bool,
+    say: Callable[[str], None],
+) -> Answer:
+    """The answer of iteration ``it`` (see the module)."""
+    local = model
+    try:
+        result, local = solve_criterion(criterion, model, space)
+    except UnreachableTuningError as exc:
+        result = best_effort(
+            exc, criterion.name, model, space, device, it, bias_step, last_iteration, say
+        )
+    moved = "unreachable" in result.info
+    chosen = dataclasses.replace(result)  # the criterion's, before the DAC code
+    apply_best_code(model, result, space, device)
+    bias = check_bias(device.device, result.bias)
+    # the region is about the answer (where the truth is); its split range is at the voltages
+    # that will really be applied
+    result.confidence = confidence_region(
+        local.linearized(chosen.w),
+        chosen,
+        space,
+        applied_bias=applied_bias(device.device, bias),
+    )
+    return Answer(result, bias, moved)
+
+
+def best_effort(
+    exc: UnreachableTuningError,
+    criterion_name: str,
+    model: FittedModel,
+    space: BiasSpace,
+    device: GuardedDevice,
+    it: int,
+    bias_step: float,
+    last_iteration: bool,
+    say: Callable[[str], None],
+) -> TuningResult:
+    """Continue from the best reachable bias, or re-raise ``exc`` if that cannot help.
+
+    A model identified around the current bias extrapolates to a far bias, so its verdict
+    "unreachable" may be wrong there (measured: the cloverleaf's 4435 Hz target, B1 near
+    9.2 V, 0.02-0.4 Hz "short" after the first iteration for some noise draws). If iterations
+    remain and the best reachable bias lies more than ``bias_step`` from the current one, the
+    run moves there (it is inside the limits) and identifies a model around it; the verdict of
+    a model identified there, or of the last iteration, stands.
+    """
+    best = exc.best_bias
+    if (
+        best is None
+        or last_iteration
+        or float(np.max(np.abs(np.asarray(best, dtype=float) - space.start_bias))) <= bias_step
+    ):
+        raise exc
+    bias = check_bias(device.device, best)
+    w = (space.structure_potential - bias[space.index]) ** 2
+    f = frequencies_from_w(model, w)
+    say(
+        f"iteration {it}: {exc} -- the model was identified more than {bias_step} V away; "
+        "continuing from that bias"
+    )
+    return TuningResult(
+        bias=bias,
+        w=w,
+        frequencies_hz=f,
+        split_hz=float(f[1] - f[0]),
+        criterion=criterion_name,
+        value=float(exc.best_value) if exc.best_value is not None else float("nan"),
+        info={"unreachable": str(exc)},
+    )
+
+
+def apply_best_code(
+    model: FittedModel, result: TuningResult, space: BiasSpace, device: GuardedDevice
+) -> None:
+    """Move ``result`` to the DAC code the model predicts best (:mod:`sysid_core.run.dac`)."""
+    code = best_code(model, result, space, device)
+    if code is None or np.array_equal(code, result.bias):
+        return
+    rounded = applied_bias(device.device, np.asarray(result.bias, dtype=float))
+    w = (space.structure_potential - code[space.index]) ** 2
+    f = frequencies_from_w(model, w)
+    before = (
+        None
+        if rounded is None
+        else frequencies_from_w(model, (space.structure_potential - rounded[space.index]) ** 2)
+    )
+    result.info["dac_code"] = {
+        "answer": [float(b) for b in result.bias],
+        "predicted_split_hz_rounded": None if before is None else float(before[1] - before[0]),
+        "predicted_split_hz_chosen": float(f[1] - f[0]),
+    }
+    result.bias, result.w = code, w
+    result.frequencies_hz, result.split_hz = f, float(f[1] - f[0])

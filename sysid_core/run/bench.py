@@ -1,0 +1,102 @@
+"""The run's bench: its device and folder; every measurement checked, saved first, counted."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from sysid_core.data.runfolder import RunFolder
+from sysid_core.data.schema import experiment_from_measurement
+from sysid_core.device.measuring import GuardedDevice
+from sysid_core.errors import DeviceError
+from sysid_core.run.benchtime import points_per_frequency
+
+__all__ = ["Bench"]
+
+
+class Bench:
+    """Measurements of one run: read from its folder when there (resume), else measured.
+
+    Parameters
+    ----------
+    device : GuardedDevice
+        The run's device, with the core's checks around it.
+    folder : RunFolder
+        Where every measurement is written before anything else is done with it.
+    electrodes : list of str
+        The device's electrodes.
+    structure_potential : float
+        ``v_gyro`` (volts).
+    name : str
+        The device's name in the configuration.
+    say : callable
+        Receives one-line progress messages.
+    owns_device : bool
+        The run built the device (then :meth:`close` closes it).
+    """
+
+    def __init__(
+        self,
+        device: GuardedDevice,
+        folder: RunFolder,
+        electrodes: list[str],
+        structure_potential: float,
+        name: str,
+        say: Callable[[str], None],
+        owns_device: bool,
+    ) -> None:
+        self.device = device
+        self.folder = folder
+        self.electrodes = electrodes
+        self.structure_potential = structure_potential
+        self.name = name
+        self.say = say
+        self.owns_device = owns_device
+        #: Measurements made or read so far, and their frequency points.
+        self.measurements = 0
+        self.points = 0
+
+    def measure(self, bias: np.ndarray, freqs: np.ndarray, path: Path) -> xr.Dataset:
+        """Read ``path`` if it holds this measurement (resume), else measure and save it first."""
+
+        def measure() -> xr.Dataset:
+            self.say(
+                f"measuring at [{', '.join(f'{b:.4f}' for b in bias)}] V, "
+                f"{freqs[0]:.3f}-{freqs[-1]:.3f} Hz, {freqs.size} points"
+            )
+            da = self.device.measure(bias, freqs)
+            return experiment_from_measurement(
+                da, bias, self.electrodes, self.structure_potential, self.name
+            )
+
+        ds, was_read = self.folder.read_or_measure(path, bias, freqs, measure)
+        if was_read:
+            self.say(f"read {path.relative_to(self.folder.path)} (measured earlier)")
+        self.measurements += 1
+        self.points += int(freqs.size) * points_per_frequency(self.device.device)
+        return ds
+
+    def close(self, failing: bool) -> None:
+        """Call the device's optional ``close()`` when the run ends (made safe, released).
+
+        Only a device the run built from the configuration is closed (one passed in belongs to
+        the caller). When the run is failing anyway, a failed close is a progress note and the
+        run's own error is what is raised; when the run succeeded, a failed close is a
+        :class:`~sysid_core.errors.DeviceError`: the bench may not be safe.
+        """
+        close = getattr(self.device.device, "close", None)
+        if not self.owns_device or not callable(close):
+            return
+        try:
+            close()
+        except Exception as exc:
+            message = (
+                f"device {self.name!r} could not be closed (made safe): {type(exc).__name__}: {exc}"
+            )
+            if failing:
+                self.say(f"note: {message}")
+                return
+            raise DeviceError(message) from exc

@@ -1,0 +1,325 @@
+"""The measuring protocols of a run, as strategies that own their state.
+
+A protocol decides what each iteration measures and fits, and how it verifies an answer:
+
+* :class:`FullProtocol` (``[experiment] protocol = "full"``): the paper's; every iteration
+  measures the design of eq. (18) over the band (then a window around the modes the previous
+  verification measured) and fits it alone.
+* :class:`LeanProtocol` (the default): points where the modes are; every sweep is kept
+  (:class:`~sysid_core.run.knowledge.Knowledge`) and fitted again while the verifications agree
+  with the model of all of them, the sweeps near the bias once they do not
+  (:mod:`sysid_core.run.lean`).
+
+Both share :class:`RunContext`: the bench, the fitter, the sweeps' plan, the experiment design
+and the progress callback.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from sysid_core.data.schema import concat_experiments
+from sysid_core.data.validation import check_rank_condition
+from sysid_core.model.fitted import FittedModel
+from sysid_core.run.bench import Bench
+from sysid_core.run.config import PipelineConfig
+from sysid_core.run.evidence import WindowAssessment
+from sysid_core.run.fitter import Fitter
+from sysid_core.run.knowledge import Knowledge
+from sysid_core.run.lean import (
+    EXPLAIN_FLOOR_HZ,
+    LOCAL_RADIUS,
+    LOCATE_POINTS,
+    ModeGuess,
+    explained_gap,
+    locate_plan,
+    mode_grid,
+    predicted_uncertainty,
+    scout_grid,
+)
+from sysid_core.run.sweeps import SweepPlan, design_experiments
+from sysid_core.run.verification import Verification, verify
+from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion, TuningResult
+
+__all__ = ["FullProtocol", "LeanProtocol", "Prefit", "Protocol", "RunContext", "make_protocol"]
+
+#: A fit already made of the data an iteration will fit: the data, the model, its notes.
+Prefit = tuple[xr.Dataset, FittedModel, list[str]]
+
+
+@dataclass
+class RunContext:
+    """What every protocol works with."""
+
+    config: PipelineConfig
+    space: BiasSpace
+    plan: SweepPlan
+    bench: Bench
+    fitter: Fitter
+    say: Callable[[str], None]
+
+    def step(self, it: int) -> float:
+        """The bias step of iteration ``it`` (volts)."""
+        exp = self.config.experiment
+        return exp.bias_step if it == 1 or exp.refine_bias_step is None else exp.refine_bias_step
+
+    def design(self, bias: np.ndarray, it: int = 1) -> np.ndarray:
+        """The experiments of eq. (18) around ``bias``, checked against the rank condition (6)
+        (two-sided unless the law is linear or the design says otherwise)."""
+        exp, law = self.config.experiment, self.config.model.stiffness
+        two_sided = exp.design == "two-sided" or (exp.design is None and law != "linear")
+        design = design_experiments(
+            bias, self.space.index, self.step(it), self.space.limits, two_sided=two_sided
+        )
+        check_rank_condition(
+            design[:, self.space.index],
+            self.space.structure_potential,
+            self.space.tuned,
+            quadratic=law == "quadratic",
+        )
+        return design
+
+
+class Protocol(ABC):
+    """What an iteration measures and fits, and how it verifies; one per run."""
+
+    def __init__(self, ctx: RunContext) -> None:
+        self.ctx = ctx
+
+    @abstractmethod
+    def data(
+        self, it: int, bias: np.ndarray, folder: Path, center_hz: float | None, split_hz: float
+    ) -> tuple[xr.Dataset, Prefit | None]:
+        """The data iteration ``it`` fits (measured into ``folder`` as needed), and its fit if
+        one was already made of exactly that data."""
+
+    @abstractmethod
+    def verify(
+        self, bias: np.ndarray, predicted: TuningResult, model: FittedModel, folder: Path
+    ) -> Verification:
+        """Step 4 at ``bias``, with evidence (:func:`sysid_core.run.verification.verify`)."""
+
+    def learned(
+        self,
+        moved: bool,
+        bias: np.ndarray,
+        verification: Verification,
+        region: ConfidenceRegion | None,
+    ) -> None:
+        """What the iteration ended with: a move to the best reachable bias, the bias verified,
+        its verification and the answer's confidence region (the lean protocol keeps them;
+        the full protocol measures afresh and keeps nothing)."""
+        return None
+
+    def sweep(
+        self, bias: np.ndarray, freqs: np.ndarray, path: Path, band: bool
+    ) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
+        """One sweep at ``bias``, its own model and the evidence that it shows both modes."""
+        sweep = self.ctx.bench.measure(bias, freqs, path)
+        model, evidence = self.ctx.fitter.window(sweep, band)
+        return sweep, model, evidence
+
+    def _verify_with(
+        self,
+        bias: np.ndarray,
+        predicted: TuningResult,
+        model: FittedModel,
+        folder: Path,
+        plan: SweepPlan,
+        lean: Callable[[float, float, bool], np.ndarray] | None = None,
+    ) -> Verification:
+        def sweep(
+            freqs: np.ndarray, name: str, band: bool
+        ) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
+            return self.sweep(bias, freqs, folder / name, band)
+
+        modes = model.modal(bias[self.ctx.space.index])
+        return verify(modes, predicted, plan, sweep, self.ctx.say, lean=lean)
+
+
+class FullProtocol(Protocol):
+    """The paper's protocol: every iteration measures and fits its own design."""
+
+    def data(
+        self, it: int, bias: np.ndarray, folder: Path, center_hz: float | None, split_hz: float
+    ) -> tuple[xr.Dataset, Prefit | None]:
+        ctx = self.ctx
+        design = ctx.design(bias, it)
+        freqs = ctx.plan.refine(center_hz, split_hz)
+        parts = [ctx.bench.measure(b, freqs, folder / f"exp{j}.nc") for j, b in enumerate(design)]
+        ds = concat_experiments(parts).sel(electrode=ctx.space.tuned)
+        ctx.say(
+            f"iteration {it}: fitting {ctx.fitter.structure.name} model to {len(design)} "
+            "experiments"
+        )
+        return ds, None
+
+    def verify(
+        self, bias: np.ndarray, predicted: TuningResult, model: FittedModel, folder: Path
+    ) -> Verification:
+        return self._verify_with(bias, predicted, model, folder, self.ctx.plan)
+
+
+class LeanProtocol(Protocol):
+    """Points where the modes are, every sweep kept (see the module).
+
+    Iteration 1 measures the design of eq. (18) where the modes should be. Later ones fit
+    every sweep so far while the last verification agrees with the model: its split inside the
+    predicted 95 % range, and the model of all sweeps reproducing the verified modes
+    (:func:`~sysid_core.run.lean.explained_gap`). Once it does not (a stiffness law that holds
+    only locally), or after a move to the best reachable bias, the run fits the sweeps near the
+    bias from then on, measuring the local design wherever they do not meet the rank condition.
+    """
+
+    def __init__(self, ctx: RunContext) -> None:
+        super().__init__(ctx)
+        self.known = Knowledge(ctx.space.tuned, ctx.space.structure_potential)
+        self.locate_plan = locate_plan(ctx.plan)
+        self.local = False
+        self.moved = False
+        self.last_verified: tuple[np.ndarray, np.ndarray] | None = None
+        self.last_region: ConfidenceRegion | None = None
+
+    def data(
+        self, it: int, bias: np.ndarray, folder: Path, center_hz: float | None, split_hz: float
+    ) -> tuple[xr.Dataset, Prefit | None]:
+        ctx = self.ctx
+        if it > 1 and self.moved:
+            self.local = True
+            ctx.say(
+                f"iteration {it}: the run moved to the best reachable bias; measuring the local "
+                "design there"
+            )
+        elif it > 1 and not self.local:
+            why, prefit = self._prediction_missed()
+            if why is None:
+                ctx.say(f"iteration {it}: fitting all {len(self.known)} sweeps so far")
+                return (prefit[0], prefit) if prefit is not None else (self.known.union(), None)
+            self.local = True
+            ctx.say(f"iteration {it}: {why}; fitting the sweeps near the bias from now on")
+        radius = LOCAL_RADIUS * ctx.step(it)
+        if it == 1 or not self.known.meets_rank(bias, radius, ctx.config.model.stiffness):
+            for j, b in enumerate(ctx.design(bias, it)):
+                if not self.known.has(b):
+                    self._learn(b, folder / f"exp{j}.nc")
+        if it == 1:
+            ctx.say(
+                f"iteration {it}: fitting {ctx.fitter.structure.name} model to "
+                f"{len(self.known)} sweeps"
+            )
+            return self.known.union(), None
+        return self.known.near(bias, radius), None
+
+    def verify(
+        self, bias: np.ndarray, predicted: TuningResult, model: FittedModel, folder: Path
+    ) -> Verification:
+        modes = model.modal(bias[self.ctx.space.index])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bw = np.asarray(modes.frequencies_hz) / np.asarray(modes.q)
+        if not np.all(np.isfinite(bw) & (bw > 0)):
+            bw = np.full(2, self.ctx.plan.verify_resolution_hz)
+        sigma = predicted_uncertainty(predicted)
+
+        def window(center: float, split: float, around_prediction: bool) -> np.ndarray:
+            guess = ModeGuess.of(
+                [center - split / 2, center + split / 2],
+                bw,
+                sigma if around_prediction else 0.0,
+            )
+            return mode_grid(guess, self.ctx.plan)
+
+        return self._verify_with(bias, predicted, model, folder, self.locate_plan, window)
+
+    def learned(
+        self,
+        moved: bool,
+        bias: np.ndarray,
+        verification: Verification,
+        region: ConfidenceRegion | None,
+    ) -> None:
+        self.moved = moved
+        if verification.verified and verification.frequencies_hz is not None:
+            self.last_verified = (bias.copy(), np.asarray(verification.frequencies_hz, dtype=float))
+            self.last_region = region
+
+    def sweep(
+        self, bias: np.ndarray, freqs: np.ndarray, path: Path, band: bool
+    ) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
+        found = super().sweep(bias, freqs, path, band)
+        self.known.add(found[0], found[2])
+        return found
+
+    def _prediction_missed(self) -> tuple[str | None, Prefit | None]:
+        """Why the last prediction does not stand (the law holds only locally), or None with
+        the fit of all sweeps that judged it (the iteration's fit, when the union stands)."""
+        if self.last_verified is None:
+            return None, None
+        vb, vf = self.last_verified
+        split = float(vf[1] - vf[0])
+        region = self.last_region
+        if region is not None and split > region.split_ci_hz[1] + EXPLAIN_FLOOR_HZ:
+            lo, hi = region.split_ci_hz
+            return (
+                f"the verified split {split * 1e3:.3g} mHz is outside the predicted 95 % range "
+                f"{lo * 1e3:.3g}-{hi * 1e3:.3g} mHz"
+            ), None
+        union = self.known.union()
+        model, notes = self.ctx.fitter.fit(union)
+        gap = explained_gap(model.modal(vb[self.ctx.space.index]).frequencies_hz, vf)
+        if gap is None:
+            return None, (union, model, notes)
+        n = len(self.known)
+        return f"a model of all {n} sweeps misses the verified modes by {gap * 1e3:.3g} mHz", None
+
+    def _learn(self, bias: np.ndarray, path: Path) -> None:
+        """Measure one identification experiment where its modes should be.
+
+        The whole band if nothing is known; a scout window if the bias steps an electrode not
+        varied before; else a mode grid around the modes predicted from every sweep so far
+        (:mod:`sysid_core.run.lean`). A sweep that does not show both modes is followed, at the
+        same bias, by the locating band sweep, one four times as dense, then the band at
+        ``resolution_hz``, until one shows them (or none is left).
+        """
+        ctx = self.ctx
+        guess, scout = self.known.guess(bias, ctx.fitter.structure, ctx.fitter.model)
+        locate = self.locate_plan.band()
+        if guess is None:
+            first = locate
+        elif scout:
+            grid = scout_grid(guess, self.locate_plan)
+            first = locate if grid.size >= locate.size else grid
+        else:
+            first = mode_grid(guess, ctx.plan)
+        denser = locate_plan(ctx.plan, 4 * (LOCATE_POINTS - 1) + 1).band()
+        tries = [
+            ("", first),
+            ("-locate", locate),
+            ("-locate4", denser),
+            ("-band", ctx.plan.band()),
+        ]
+        done: list[np.ndarray] = []
+        for suffix, freqs in tries:
+            if any(d.size == freqs.size and np.allclose(d, freqs) for d in done):
+                continue
+            name = f"{path.stem}{suffix}.nc"
+            _, _, evidence = self.sweep(bias, freqs, path.with_name(name), True)
+            if evidence.ok:
+                return
+            done.append(freqs)
+            ctx.say(
+                f"{path.parent.name}/{name}: the sweep does not show both modes "
+                f"({evidence.failures()})"
+            )
+
+
+def make_protocol(ctx: RunContext) -> Protocol:
+    """The protocol the configuration names (``[experiment] protocol``)."""
+    if ctx.config.experiment.protocol == "lean":
+        return LeanProtocol(ctx)
+    return FullProtocol(ctx)
