@@ -42,6 +42,7 @@ from sysid_objectives.minimax import Minimax
 from sysid_solvers.clarabel_backend import ClarabelSolver
 
 import sysid_core
+import sysid_core._compat
 import sysid_core.plugin.registry
 from sysid_core import hookimpl
 from sysid_core.conic.program import Solver
@@ -699,3 +700,81 @@ def test_run_with_its_own_registry_uses_no_global(
     assert MarginCriterion.solved == [run.criterion]  # its criterion tuned
     assert np.all(np.abs(summary.bias) <= 10.0)
     assert no_global_registry == []
+
+
+# ============================================================= public import paths
+def documented_paths() -> list[tuple[str, list[str]]]:
+    """The table of ``docs/contracts.md``'s "Python import paths": ``(path, names)`` rows."""
+    text = (ROOT / "docs" / "contracts.md").read_text(encoding="utf-8")
+    section = text.split("## Python import paths", 1)[1].split("\n## ", 1)[0]
+    rows = []
+    for line in section.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) == 2 and cells[0].startswith("`sysid_core"):
+            names = [n.strip().strip("`") for n in cells[1].split(",")]
+            rows.append((cells[0].strip("`"), names))
+    return rows
+
+
+def test_every_documented_import_path_imports() -> None:
+    rows = documented_paths()
+    assert len(rows) >= 25 and rows[0][0] == "sysid_core"
+    missing = []
+    for path, names in rows:
+        module = importlib.import_module(path)
+        missing += [f"{path}.{n}" for n in names if not hasattr(module, n)]
+    assert not missing, missing
+    # the package's __all__ is documented whole
+    assert set(sysid_core.__all__) <= set(rows[0][1])
+    assert {"RunSummary", "TuningResult", "PipelineConfig"} <= set(sysid_core.__all__)
+
+
+def test_hookspec_is_the_marker_whatever_is_imported_first() -> None:
+    """``sysid_core.hookspec`` is the hook marker; no module of that name rebinds it."""
+    code = (
+        "import warnings; warnings.simplefilter('ignore', DeprecationWarning)\n"
+        "from sysid_core.hookspec import hookimpl as old\n"  # the 0.1 module path, first
+        "import pluggy, sysid_core, json\n"
+        "from sysid_core import hookspec, hookimpl\n"
+        "print(json.dumps([isinstance(hookspec, pluggy.HookspecMarker), old is hookimpl]))"
+    )
+    assert _python(code, ROOT) == [True, True]
+
+
+@pytest.mark.parametrize("old", sorted(sysid_core._compat.MOVED))
+def test_an_old_module_path_warns_and_forwards(old: str) -> None:
+    """Every module path of release 0.1 that moved still gives the same objects, warning."""
+    new = importlib.import_module(f"sysid_core.{sysid_core._compat.MOVED[old]}")
+    shim = importlib.import_module(f"sysid_core.{old}")
+    public = getattr(new, "__all__", None) or [
+        n
+        for n, v in vars(new).items()
+        if not n.startswith("_") and getattr(v, "__module__", None) == new.__name__
+    ]
+    assert public, new
+    name = public[0]
+    with pytest.warns(DeprecationWarning, match=rf"sysid_core\.{old} moved to sysid_core\."):
+        value = getattr(shim, name)
+    assert value is getattr(new, name)
+
+
+def test_names_that_left_their_module_forward_to_their_new_home() -> None:
+    from sysid_core.api import load_model
+    from sysid_core.conic.program import sigma_max_2x2
+    from sysid_core.identification.fitting import check_fit
+    from sysid_core.model.structures import DEFAULT_ORDER
+
+    with pytest.warns(DeprecationWarning, match="sysid_core.identification.fitting"):
+        from sysid_core.fit import check_fit as old_check
+    with pytest.warns(DeprecationWarning, match="sysid_core.api"):
+        from sysid_core.fit import load_model as old_load
+    with pytest.warns(DeprecationWarning, match="sysid_core.conic.program"):
+        from sysid_core.problem import sigma_max_2x2 as old_sigma
+    with pytest.warns(DeprecationWarning, match="sysid_core.model.structures"):
+        from sysid_core.config import DEFAULT_ORDER as old_order
+    assert (old_check, old_load, old_sigma, old_order) == (
+        check_fit,
+        load_model,
+        sigma_max_2x2,
+        DEFAULT_ORDER,
+    )

@@ -49,7 +49,7 @@ class _Plugin:
         return {ClosingGyro.name: ClosingGyro}
 
 
-def run(tmp_path: Path, **device: Any) -> TuningRun:
+def run(tmp_path: Path, progress: Any = None, **device: Any) -> TuningRun:
     registry = Registry()
     registry.register(_Plugin(), name="closing", distribution="tests")
     cfg = parse_config(
@@ -59,7 +59,7 @@ def run(tmp_path: Path, **device: Any) -> TuningRun:
         }
     )
     ClosingGyro.closed.clear()
-    return TuningRun(cfg, tmp_path / "run", registry=registry, plots=False)
+    return TuningRun(cfg, tmp_path / "run", registry=registry, plots=False, progress=progress)
 
 
 def test_closed_when_the_run_ends(tmp_path: Path) -> None:
@@ -79,8 +79,7 @@ def test_a_close_that_fails_is_an_error_only_when_nothing_else_failed(tmp_path: 
     with pytest.raises(DeviceError, match=r"could not be closed \(made safe\): OSError"):
         run(tmp_path, bad_close=True).run()
     messages: list[str] = []
-    r = run(tmp_path / "b", bad_close=True, fail_on=2)
-    r.say = messages.append
+    r = run(tmp_path / "b", messages.append, bad_close=True, fail_on=2)
     with pytest.raises(DeviceError, match="lost the analyzer"):
         r.run()
     assert any("could not be closed" in m for m in messages)
