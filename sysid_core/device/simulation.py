@@ -21,7 +21,7 @@ import numpy as np
 import scipy.optimize
 
 from sysid_core.data.schema import squared_potentials
-from sysid_core.model.modal import degenerate_w, modal_analysis
+from sysid_core.model.modal import degenerate_pair_bias, modal_analysis
 
 __all__ = ["GyroTruth", "LowPass"]
 
@@ -155,9 +155,10 @@ class GyroTruth:
             Every electrode's bias (volts); the electrodes not in ``electrodes`` stay at these
             values. Default: 0 V.
 
-        Without a :attr:`bias_law`, the closed form of :func:`sysid_core.model.modal.degenerate_w`
-        with the root ``v_p = v_gyro - dv_p`` of the sign of ``v_gyro``. With one, the stiffness
-        is no longer affine in ``w``: the closed form is the start of a solve (Powell's hybrid
+        Without a :attr:`bias_law`, the closed form
+        (:func:`sysid_core.model.modal.degenerate_pair_bias`) with the root
+        ``v_p = v_gyro - dv_p`` of the sign of ``v_gyro``. With one, the stiffness is no longer
+        affine in ``w``: the closed form is the start of a solve (Powell's hybrid
         method, ``scipy.optimize.root``) of the two conditions that make
         ``M^-1/2 K M^-1/2`` a multiple of the identity, to a relative anisotropy below 1e-11.
 
@@ -184,12 +185,11 @@ class GyroTruth:
         base = self.stiffness(others.tolist())
         bias = held.copy()
         try:
-            wa, wb, _ = degenerate_w(base, self.Kp[a], self.Kp[b], self.M)
+            bias[[a, b]] = degenerate_pair_bias(
+                base, self.Kp[a], self.Kp[b], self.M, vg, clamp=True
+            )
         except np.linalg.LinAlgError:  # no closed form (a collinear pair): start from the held
-            return bias
-        sign = 1.0 if vg >= 0.0 else -1.0
-        bias[a] = vg - sign * np.sqrt(max(wa, 0.0))
-        bias[b] = vg - sign * np.sqrt(max(wb, 0.0))
+            pass
         return bias
 
     def _anisotropy(self, bias: np.ndarray, m_isqrt: np.ndarray) -> np.ndarray:

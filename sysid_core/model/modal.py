@@ -22,17 +22,73 @@ from sysid_core.errors import ModelError
 __all__ = [
     "MODAL_COND_LIMIT",
     "ModalReport",
+    "bandwidth_hz",
     "degenerate_bias",
+    "degenerate_pair_bias",
     "degenerate_w",
     "modal_analysis",
+    "modal_frequencies_hz",
     "mode_peaks",
+    "normalised_stiffness",
     "principal_part",
     "snr_loss_db",
+    "trace_deviation",
 ]
 
 #: :func:`principal_part` keeps the two modes in triangular (Schur) form instead of diagonal
 #: form when the eigenvectors' condition number exceeds this (nearly defective modes).
 MODAL_COND_LIMIT = 1e6
+
+
+def normalised_stiffness(m: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """``M^{-1/2} K M^{-1/2}`` for stacks ``m`` ``(S, 2, 2)`` and ``k`` ``(S, ..., 2, 2)``.
+
+    Its eigenvalues are the generalized eigenvalues of ``(K, M)``: the squared undamped modal
+    frequencies (rad/s)².
+    """
+    lam, vec = np.linalg.eigh(m)
+    root = 1.0 / np.sqrt(np.clip(lam, 1e-12, None))
+    mh = np.einsum("sij,sj,skj->sik", vec, root, vec)
+    extra = k.ndim - 3
+    mh_b = mh.reshape(mh.shape[0], *([1] * extra), 2, 2)
+    return mh_b @ k @ mh_b
+
+
+def trace_deviation(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``t`` and ``d = (d1, d2)`` of symmetric 2×2 matrices (last two axes): the eigenvalues
+    are ``t ± |d|``, so ``|d|`` alone sets how far apart they are."""
+    t = 0.5 * (k[..., 0, 0] + k[..., 1, 1])
+    d = np.stack([0.5 * (k[..., 0, 0] - k[..., 1, 1]), k[..., 0, 1]], axis=-1)
+    return t, d
+
+
+def modal_frequencies_hz(k: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """The two undamped modal frequencies (Hz) of stiffness ``k`` and mass ``m``, ascending.
+
+    The one modal-frequency function of the toolkit: ``sqrt(λ) / 2π`` for the generalized
+    eigenvalues ``λ = t ± |d|`` of ``(K, M)`` (:func:`normalised_stiffness`,
+    :func:`trace_deviation`), in closed form. ``k`` may be one matrix ``(2, 2)`` or a stack
+    ``(S, 2, 2)`` (then ``m`` is one matrix or a stack of ``S``); the result has shape ``(2,)``
+    or ``(S, 2)``. A negative eigenvalue (no oscillating mode) gives frequency 0.
+    """
+    k = np.asarray(k, dtype=float)
+    single = k.ndim == 2
+    ks = k[None] if single else k
+    ms = np.broadcast_to(np.asarray(m, dtype=float), ks.shape)
+    t, d = trace_deviation(normalised_stiffness(np.ascontiguousarray(ms), ks[:, None])[:, 0])
+    r = np.hypot(d[..., 0], d[..., 1])
+    low = np.sqrt(np.clip(t - r, 0.0, None))
+    high = np.sqrt(np.clip(t + r, 0.0, None))
+    f = np.stack([low, high], axis=-1) / (2 * np.pi)
+    return f[0] if single else f
+
+
+def bandwidth_hz(frequencies_hz: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Half-power bandwidths ``f / Q`` (Hz); ``inf`` where ``Q`` is not a positive number."""
+    f = np.asarray(frequencies_hz, dtype=float)
+    q = np.asarray(q, dtype=float)
+    ok = np.isfinite(q) & (q > 0)
+    return np.where(ok, f / np.where(ok, q, 1.0), np.inf)
 
 
 def snr_loss_db(split_hz: float, center_hz: float, q: float) -> float:
@@ -68,6 +124,16 @@ class ModalReport:
     split_hz: float
     snr_loss_db: float
 
+    @property
+    def center_hz(self) -> float:
+        """The mean of the two undamped modal frequencies (Hz)."""
+        return float(np.mean(self.frequencies_hz))
+
+    @property
+    def bandwidth_hz(self) -> np.ndarray:
+        """Each mode's half-power bandwidth ``f / Q`` (Hz; :func:`bandwidth_hz`)."""
+        return bandwidth_hz(self.frequencies_hz, self.q)
+
     def as_dict(self) -> dict[str, Any]:
         """JSON-friendly form."""
         return {
@@ -94,8 +160,7 @@ def modal_analysis(
     q : ndarray
         Quality factor ``|s| / (2 |Re s|)`` of each damped mode, in the order of ``damped_hz``.
     """
-    lam = scipy.linalg.eigh(k, m, eigvals_only=True)
-    undamped = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+    undamped = modal_frequencies_hz(k, m)
     minv = np.linalg.inv(m)
     a = np.block([[np.zeros((2, 2)), np.eye(2)], [-minv @ k, -minv @ c]])
     s = np.linalg.eigvals(a)
@@ -236,9 +301,39 @@ def degenerate_bias(
     n_e = kp.shape[0]
     w = squared_potentials(structure_potential, np.zeros(n_e))
     base = np.asarray(k0, dtype=float) + sum(w[p] * kp[p] for p in range(n_e) if p not in pair)
-    wa, wb, _ = degenerate_w(base, kp[a], kp[b], np.asarray(m, dtype=float))
     bias = np.zeros(n_e)
-    sign = 1.0 if structure_potential >= 0.0 else -1.0
-    bias[a] = structure_potential - sign * np.sqrt(wa)
-    bias[b] = structure_potential - sign * np.sqrt(wb)
+    bias[[a, b]] = degenerate_pair_bias(base, kp[a], kp[b], m, structure_potential)
     return bias
+
+
+def degenerate_pair_bias(
+    base: np.ndarray,
+    k_a: np.ndarray,
+    k_b: np.ndarray,
+    m: np.ndarray,
+    structure_potential: float,
+    clamp: bool = False,
+) -> np.ndarray:
+    """The biases ``(dv_a, dv_b)`` (volts) that make ``base + w_a k_a + w_b k_b = lam m``.
+
+    The closed form of :func:`degenerate_w`, with the root ``dv = v_gyro - sign(v_gyro)
+    sqrt(w)`` nearer 0 V. ``clamp`` takes a negative ``w`` (no real bias reaches it) as 0 (the
+    electrode at ``v_gyro``) instead of giving NaN.
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        When the pair has no closed form (``k_a``, ``k_b`` and ``m`` linearly dependent).
+    """
+    wa, wb, _ = degenerate_w(
+        np.asarray(base, dtype=float),
+        np.asarray(k_a, dtype=float),
+        np.asarray(k_b, dtype=float),
+        np.asarray(m, dtype=float),
+    )
+    w = np.array([wa, wb])
+    if clamp:
+        w = np.maximum(w, 0.0)
+    sign = 1.0 if structure_potential >= 0.0 else -1.0
+    with np.errstate(invalid="ignore"):
+        return structure_potential - sign * np.sqrt(w)

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sysid_core.data.schema import squared_potentials
 from sysid_core.device.measuring import GuardedDevice, applied_bias, check_bias
 from sysid_core.errors import UnreachableTuningError
 from sysid_core.model.fitted import FittedModel
@@ -113,7 +114,7 @@ def best_effort(
     ):
         raise exc
     bias = check_bias(device.device, best)
-    w = (space.structure_potential - bias[space.index]) ** 2
+    w = squared_potentials(space.structure_potential, bias[space.index])
     f = frequencies_from_w(model, w)
     say(
         f"iteration {it}: {exc} -- the model was identified more than {bias_step} V away; "
@@ -138,12 +139,14 @@ def apply_best_code(
     if code is None or np.array_equal(code, result.bias):
         return
     rounded = applied_bias(device.device, np.asarray(result.bias, dtype=float))
-    w = (space.structure_potential - code[space.index]) ** 2
+    w = squared_potentials(space.structure_potential, code[space.index])
     f = frequencies_from_w(model, w)
     before = (
         None
         if rounded is None
-        else frequencies_from_w(model, (space.structure_potential - rounded[space.index]) ** 2)
+        else frequencies_from_w(
+            model, squared_potentials(space.structure_potential, rounded[space.index])
+        )
     )
     result.info["dac_code"] = {
         "answer": [float(b) for b in result.bias],

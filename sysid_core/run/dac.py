@@ -16,9 +16,10 @@ import itertools
 
 import numpy as np
 
+from sysid_core.data.schema import squared_potentials
 from sysid_core.device.measuring import GuardedDevice, applied_bias
 from sysid_core.model.fitted import FittedModel
-from sysid_core.tuning.confidence import _normalise, _trace_dev
+from sysid_core.model.modal import modal_frequencies_hz
 from sysid_core.tuning.criteria import BiasSpace, TuningResult
 
 __all__ = ["MAX_ELECTRODES", "best_code", "bias_resolution", "predicted_modes_hz"]
@@ -41,11 +42,7 @@ def bias_resolution(device: object) -> float | None:
 def predicted_modes_hz(model: FittedModel, w: np.ndarray) -> np.ndarray:
     """The model's two undamped modal frequencies (Hz) at each row of ``w``, ``(S, 2)``."""
     w = np.atleast_2d(np.asarray(w, dtype=float))
-    t, d = _trace_dev(_normalise(model.M[None], model.stiffness_w(w)))
-    r = np.hypot(d[:, 0], d[:, 1])
-    low = np.sqrt(np.clip(t - r, 0.0, None))
-    high = np.sqrt(np.clip(t + r, 0.0, None))
-    return np.stack([low, high], axis=1) / (2 * np.pi)
+    return modal_frequencies_hz(model.stiffness_w(w), model.M)
 
 
 def best_code(
@@ -74,7 +71,7 @@ def best_code(
     if not codes:
         return None
     applied_codes = np.array(codes)
-    w = (space.structure_potential - applied_codes[:, index]) ** 2
+    w = squared_potentials(space.structure_potential, applied_codes[:, index])
     f = predicted_modes_hz(model, w)
     target = result.info.get("target_hz")
     if target is not None:

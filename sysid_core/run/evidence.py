@@ -185,9 +185,7 @@ def assess_window(sweep: xr.Dataset, model: FittedModel, band: bool = False) -> 
     step = float(np.max(np.diff(f))) if f.size > 1 else span
     rep = model.modal([])
     modes = np.asarray(rep.frequencies_hz, dtype=float)
-    q = np.asarray(rep.q, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        bw = np.where(np.isfinite(q) & (q > 0), modes / q, np.inf)
+    bw = rep.bandwidth_hz
     checks: list[Check] = []
 
     g = model.response(f, [])

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
-from sysid_core.data.schema import concat_experiments, requested_bias
+from sysid_core.data.schema import concat_experiments, requested_bias, squared_potentials
 from sysid_core.data.validation import check_rank_condition
 from sysid_core.errors import SysidError
 from sysid_core.model.fitted import FittedModel
@@ -162,9 +162,7 @@ class Knowledge:
             rep = model.modal([bias[names.index(e)] for e in varied])
         except SysidError:
             return self._scout(bias, ref), True
-        with np.errstate(divide="ignore", invalid="ignore"):
-            bw = np.asarray(rep.frequencies_hz) / np.asarray(rep.q)
-        predicted = ModeGuess.of(rep.frequencies_hz, bw)
+        predicted = ModeGuess.of(rep.frequencies_hz, rep.bandwidth_hz)
         if not predicted.usable():
             return self._scout(bias, ref), True
         return predicted.moved_from(ref.modes), False
@@ -187,11 +185,13 @@ class Knowledge:
                 if d.sum() != 1:
                     continue
                 p = int(np.flatnonzero(d)[0])
-                dw = abs((vg - a.bias[p]) ** 2 - (vg - b.bias[p]) ** 2)
+                dw = abs(squared_potentials(vg, a.bias[p]) - squared_potentials(vg, b.bias[p]))
                 assert a.modes is not None and b.modes is not None
                 move = float(np.max(np.abs(a.modes.frequencies_hz - b.modes.frequencies_hz)))
                 rate = max(rate, move / dw)
-        dw_new = float(np.max(np.abs((vg - bias) ** 2 - (vg - ref.bias) ** 2)))
+        dw_new = float(
+            np.max(np.abs(squared_potentials(vg, bias) - squared_potentials(vg, ref.bias)))
+        )
         return ModeGuess(
             ref.modes.frequencies_hz, ref.modes.bandwidth_hz, np.full(2, 3 * rate * dw_new)
         )

@@ -220,8 +220,7 @@ class LeanProtocol(Protocol):
         self, bias: np.ndarray, predicted: TuningResult, model: FittedModel, folder: Path
     ) -> Verification:
         modes = model.modal(bias[self.ctx.space.index])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            bw = np.asarray(modes.frequencies_hz) / np.asarray(modes.q)
+        bw = modes.bandwidth_hz
         if not np.all(np.isfinite(bw) & (bw > 0)):
             bw = np.full(2, self.ctx.plan.verify_resolution_hz)
         sigma = predicted_uncertainty(predicted)

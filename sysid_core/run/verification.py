@@ -119,8 +119,7 @@ def verify(
         ``predicted`` false for the window around modes a whole-band sweep located.
     """
     rep = predicted_modes
-    with np.errstate(divide="ignore", invalid="ignore"):
-        bw = np.asarray(rep.frequencies_hz) / np.asarray(rep.q)
+    bw = rep.bandwidth_hz
     bw_min = float(np.min(bw)) if np.all(np.isfinite(bw) & (bw > 0)) else np.inf
     bw_max = float(np.max(bw)) if np.isfinite(bw_min) else 0.0
 

@@ -29,7 +29,9 @@ import math
 import numpy as np
 
 from sysid_core.conic.program import sym
+from sysid_core.data.schema import squared_potentials
 from sysid_core.model.fitted import FittedModel
+from sysid_core.model.modal import normalised_stiffness, trace_deviation
 from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion, TuningResult
 
 __all__ = ["DEFAULT_LEVEL", "DEFAULT_SAMPLES", "confidence_region", "stiffness_vector"]
@@ -52,23 +54,6 @@ def stiffness_vector(model: FittedModel) -> np.ndarray:
     for kp in model.Kp:
         values += entries(kp)
     return np.array(values)
-
-
-def _normalise(m: np.ndarray, k: np.ndarray) -> np.ndarray:
-    """``M^{-1/2} K M^{-1/2}`` for stacks ``m`` ``(S, 2, 2)`` and ``k`` ``(S, ..., 2, 2)``."""
-    lam, vec = np.linalg.eigh(m)
-    root = 1.0 / np.sqrt(np.clip(lam, 1e-12, None))
-    mh = np.einsum("sij,sj,skj->sik", vec, root, vec)
-    extra = k.ndim - 3
-    mh_b = mh.reshape(mh.shape[0], *([1] * extra), 2, 2)
-    return mh_b @ k @ mh_b
-
-
-def _trace_dev(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``t`` and ``d = (d1, d2)`` of symmetric 2×2 matrices (last two axes)."""
-    t = 0.5 * (k[..., 0, 0] + k[..., 1, 1])
-    d = np.stack([0.5 * (k[..., 0, 0] - k[..., 1, 1]), k[..., 0, 1]], axis=-1)
-    return t, d
 
 
 def _split_hz(t: float | np.ndarray, r: float | np.ndarray) -> np.ndarray:
@@ -141,7 +126,7 @@ def confidence_region(
     v_gyro = space.structure_potential
     index = space.index
     bias = np.asarray(result.bias, dtype=float)
-    w_hat = (v_gyro - bias[index]) ** 2
+    w_hat = squared_potentials(v_gyro, bias[index])
     n_t = len(index)
     if list(model.electrodes) != list(space.tuned):
         raise ValueError(
@@ -157,18 +142,24 @@ def confidence_region(
     m = sym(draws[:, 0:3])
     k0 = sym(draws[:, 3:6])
     kp = sym(draws[:, 6:].reshape(samples, n_e, 3))  # (S, n_e, 2, 2)
-    t, d = _trace_dev(_normalise(m, k0 + np.einsum("p,sp...->s...", w_hat, kp)))
-    tp, dp = _trace_dev(_normalise(m, kp))  # (S, n_e), (S, n_e, 2)
-    t_hat, d_hat = _trace_dev(_normalise(model.M[None], model.stiffness_w(w_hat)[None]))
+    t, d = trace_deviation(normalised_stiffness(m, k0 + np.einsum("p,sp...->s...", w_hat, kp)))
+    tp, dp = trace_deviation(normalised_stiffness(m, kp))  # (S, n_e), (S, n_e, 2)
+    t_hat, d_hat = trace_deviation(
+        normalised_stiffness(model.M[None], model.stiffness_w(w_hat)[None])
+    )
     t0, d0 = float(t_hat[0]), d_hat[0]
 
     # Where the split is predicted: the applied bias if the device says, and the ellipse of d.
     if applied_bias is None:
         t_at, d_at, t_at0, d_at0 = t, d, t0, d0
     else:
-        w_at = (v_gyro - np.asarray(applied_bias, dtype=float)[index]) ** 2
-        t_at, d_at = _trace_dev(_normalise(m, k0 + np.einsum("p,sp...->s...", w_at, kp)))
-        t_a, d_a = _trace_dev(_normalise(model.M[None], model.stiffness_w(w_at)[None]))
+        w_at = squared_potentials(v_gyro, np.asarray(applied_bias, dtype=float)[index])
+        t_at, d_at = trace_deviation(
+            normalised_stiffness(m, k0 + np.einsum("p,sp...->s...", w_at, kp))
+        )
+        t_a, d_a = trace_deviation(
+            normalised_stiffness(model.M[None], model.stiffness_w(w_at)[None])
+        )
         t_at0, d_at0 = float(t_a[0]), d_a[0]
     split_ci, (f_lo, f_hi) = _split_and_frequency(t_at, d_at, t_at0, d_at0, level)
 
@@ -182,10 +173,12 @@ def confidence_region(
     step = np.einsum("sij,sj->si", np.linalg.pinv(jac), rhs)
     # The answer's own step (nonzero where the conditions cannot all hold: an unreachable
     # goal, a target with two electrodes) is the criterion's compromise, not uncertainty.
-    own_jac = np.transpose(_trace_dev(_normalise(model.M[None], model.Kp[None]))[1][0])
+    own_jac = np.transpose(
+        trace_deviation(normalised_stiffness(model.M[None], model.Kp[None]))[1][0]
+    )
     own_rhs = -d0
     if target is not None:
-        own_tp = _trace_dev(_normalise(model.M[None], model.Kp[None]))[0][0]
+        own_tp = trace_deviation(normalised_stiffness(model.M[None], model.Kp[None]))[0][0]
         own_jac = np.vstack([own_jac, own_tp[None, :]])
         own_rhs = np.append(own_rhs, (_TWO_PI * float(target)) ** 2 - t0)
     step = step - np.linalg.pinv(own_jac) @ own_rhs

@@ -17,12 +17,11 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
-import scipy.linalg
 
 from sysid_core.data.schema import squared_potentials
 from sysid_core.errors import BiasLimitError, ConfigError
 from sysid_core.model.fitted import FittedModel
-from sysid_core.model.modal import degenerate_bias, degenerate_w
+from sysid_core.model.modal import degenerate_bias, degenerate_w, modal_frequencies_hz
 
 __all__ = [
     "BiasSpace",
@@ -72,8 +71,7 @@ def bias_from_w(w: float, v_gyro: float, low: float, high: float, tol: float = 1
 
 def frequencies_from_w(model: FittedModel, w: np.ndarray) -> np.ndarray:
     """Undamped modal frequencies (Hz) of ``model`` at squared potentials ``w``."""
-    lam = scipy.linalg.eigh(model.stiffness_w(w), model.M, eigvals_only=True)
-    return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+    return modal_frequencies_hz(model.stiffness_w(w), model.M)
 
 
 @dataclass(frozen=True)

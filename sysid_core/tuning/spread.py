@@ -15,12 +15,12 @@ O(1e-4) rather than O(1e-7) of the matrix entries.
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg
 import scipy.sparse as sp
 
 from sysid_core.conic.program import ConeDims, ConicProgram, Solver, SolveStatus, svec2
 from sysid_core.errors import SolverError
 from sysid_core.model.fitted import FittedModel
+from sysid_core.model.modal import normalised_stiffness, trace_deviation
 
 __all__ = ["solve_spread", "spread_program"]
 
@@ -36,8 +36,9 @@ class _Scaled:
         self.w_c = box.mean(axis=1)
         self.w_s = np.maximum((box[:, 1] - box[:, 0]) / 2, 1e-12)
         k_c = model.stiffness_w(self.w_c)
-        lam = scipy.linalg.eigh(k_c, model.M, eigvals_only=True)
-        self.lam_ref = float(lam.mean())
+        # the mean of the generalized eigenvalues of (K, M): the trace of M^-1/2 K M^-1/2 / 2
+        t, _ = trace_deviation(normalised_stiffness(model.M[None], k_c[None]))
+        self.lam_ref = float(t[0])
         self.k_c = (k_c - self.lam_ref * model.M) / (self.lam_ref * _D)
         self.k_p = model.Kp * (self.w_s / (self.lam_ref * _D))[:, None, None]
 
