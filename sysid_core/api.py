@@ -1,15 +1,14 @@
-"""The toolkit from Python (notebooks, scripts): :func:`fit`, :func:`load_model`, :func:`tune`
-and :func:`predict_bias`.
+"""The toolkit from Python (notebooks, scripts): fit, load a model, tune, predict the bias.
 
+The functions are :func:`fit`, :func:`load_model`, :func:`tune` and :func:`predict_bias`.
 Components are named (``"act"``, ``"minimax"``) and looked up in the plugin registry passed in,
 or the process-wide one; component objects passed in are used as they are.
 
-``tune`` is
-The same run as ``sysid tune``, with the configuration given as a file, a mapping (the TOML
-tables as dicts) or a :class:`~sysid_core.run.config.PipelineConfig`; the answer is the run's
-:class:`~sysid_core.run.summary.RunSummary` (final bias, verified split, goals, history, and the
-paths of every file written). A run that does not converge is returned, not raised: look at
-``result.converged`` and ``result.status``.
+``tune`` is the same run as ``sysid tune``, with the configuration given as a file, a mapping
+(the TOML tables as dicts) or a :class:`~sysid_core.run.config.PipelineConfig`; the answer is
+the run's :class:`~sysid_core.run.summary.RunSummary` (final bias, verified split, goals,
+history, and the paths of every file written). A run that does not converge is returned, not
+raised: look at ``result.converged`` and ``result.status``.
 
 Example
 -------

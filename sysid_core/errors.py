@@ -182,8 +182,10 @@ class FitWarning(SysidWarning):
 
 
 class OutputError(SysidError, ValueError):
-    """An output path must not be written: an input file, a link, a non-regular file, or an
-    existing file without ``--force``."""
+    """An output path must not be written.
+
+    It is an input file, a link, a non-regular file, or an existing file without ``--force``.
+    """
 
 
 class RunFolderError(SysidError, ValueError):

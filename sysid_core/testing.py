@@ -128,17 +128,18 @@ class DeviceContract:
 
     # ---------------------------------------------------------- attributes
     def test_core_accepts_the_device(self, device: Device) -> None:
-        # What sysid tune checks before its first measurement (raises DeviceError: why).
+        """What ``sysid tune`` checks before its first measurement (raises DeviceError: why)."""
         check_device(device, type(device).__name__)
 
     def test_core_accepts_the_answers(self, device: Device) -> None:
-        # What sysid tune checks on every answer, including the same labels every time.
+        """What ``sysid tune`` checks on every answer, including the same labels every time."""
         f = self.frequencies(device, 11)
         first = check_answer(device.measure(self.reference_bias(device), f), f)
         labels = ([str(v) for v in first["output"].values], [str(v) for v in first["input"].values])
         check_answer(device.measure(self.reference_bias(device), f), f, labels)
 
     def test_follows_device_protocol(self, device: Device) -> None:
+        """The device has every attribute of the protocol, and ``measure`` is callable."""
         assert isinstance(device, Device), (
             "the device lacks one of electrodes, bias_limits, structure_potential, band_hz, "
             "measure (see sysid_core.plugin.interfaces.Device)"
@@ -146,6 +147,7 @@ class DeviceContract:
         assert callable(device.measure)
 
     def test_electrodes(self, device: Device) -> None:
+        """``electrodes``: a non-empty sequence of unique, non-empty strings."""
         electrodes = device.electrodes
         assert isinstance(electrodes, Sequence) and not isinstance(electrodes, str), (
             f"electrodes must be a sequence of names, got {electrodes!r}"
@@ -157,6 +159,7 @@ class DeviceContract:
         assert len(set(electrodes)) == len(electrodes), f"electrode names repeat: {electrodes!r}"
 
     def test_bias_limits_ordered(self, device: Device) -> None:
+        """``bias_limits``: a ``(low, high)`` tuple of finite numbers, ``low < high``."""
         limits = device.bias_limits
         assert isinstance(limits, tuple) and len(limits) == 2, (
             f"bias_limits must be a (low, high) tuple, got {limits!r}"
@@ -167,12 +170,14 @@ class DeviceContract:
         assert low < high, f"bias_limits must be ordered (low < high), got {limits!r}"
 
     def test_structure_potential(self, device: Device) -> None:
+        """``structure_potential``: a finite number."""
         v = device.structure_potential
         assert _is_real(v) and math.isfinite(v), (
             f"structure_potential must be a finite number: {v!r}"
         )
 
     def test_band_ordered_and_positive(self, device: Device) -> None:
+        """``band_hz``: a ``(low, high)`` tuple of finite numbers, ``0 < low < high``."""
         band = device.band_hz
         assert isinstance(band, tuple) and len(band) == 2, (
             f"band_hz must be a (low, high) tuple, got {band!r}"
@@ -184,6 +189,7 @@ class DeviceContract:
 
     # ------------------------------------------------------------- measure
     def test_measure_schema(self, device: Device) -> None:
+        """``measure`` gives a finite complex 2×2 response at exactly the requested frequencies."""
         rng = np.random.default_rng(12345)
         low, high = device.band_hz
         f = np.sort(rng.uniform(low, high, 37))  # an irregular grid: returned exactly
@@ -203,6 +209,7 @@ class DeviceContract:
         assert np.all(np.isfinite(result.values)), "the response has NaN or infinite values"
 
     def test_measure_accepts_list_and_array(self, device: Device) -> None:
+        """``measure`` takes the bias as a list, a tuple or an array."""
         f = self.frequencies(device, 5)
         bias = self.reference_bias(device)
         for given in (list(bias), tuple(bias), np.asarray(bias, dtype=float)):
@@ -211,6 +218,7 @@ class DeviceContract:
             assert result.shape == (5, 2, 2)
 
     def test_resonance_in_band(self, device: Device) -> None:
+        """The in-band peak exceeds the band edges' magnitude by :attr:`resonance_ratio`."""
         f = self.frequencies(device, self.band_points)
         magnitude = self._peak(device.measure(self.reference_bias(device), f))
         edges = max(magnitude[0], magnitude[-1])
@@ -221,6 +229,7 @@ class DeviceContract:
         )
 
     def test_repeatable(self, device: Device) -> None:
+        """Two measurements at one bias agree within :attr:`repeat_tolerance` of the peak."""
         f = self.frequencies(device, 61)
         bias = self.reference_bias(device)
         first = np.asarray(device.measure(bias, f).values)
@@ -234,6 +243,7 @@ class DeviceContract:
 
     # -------------------------------------------------------- ground truth
     def test_true_modal_frequencies(self, device: Device) -> None:
+        """A simulated device's true modes: two finite, ascending frequencies inside ``band_hz``."""
         if not isinstance(device, SimulatedDevice):
             pytest.skip("the device has no true_modal_frequencies_hz (real hardware)")
         f = np.asarray(device.true_modal_frequencies_hz(self.reference_bias(device)), dtype=float)
@@ -248,6 +258,7 @@ class DeviceContract:
 
     # ------------------------------------------------------------ optional
     def test_refuses_bias_outside_limits(self, device: Device) -> None:
+        """With :attr:`checks_bias_limits`, ``measure`` refuses a bad bias with BiasLimitError."""
         if not self.checks_bias_limits:
             pytest.skip("checks_bias_limits is False: the device relies on the core's check")
         low, high = device.bias_limits
@@ -267,6 +278,7 @@ class DeviceContract:
                 device.measure(good[:-1], f)
 
     def test_factory_rejects_unknown_option(self) -> None:
+        """Building :meth:`device_factory` as the registry does rejects an unknown option."""
         factory = self.device_factory()
         if factory is None:
             pytest.skip("device_factory() returns None: option handling not tested")

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING, Any, TypeVar
 
 if TYPE_CHECKING:
@@ -60,6 +60,7 @@ def run_batch(
     cluster = None
     own = client is None
     pending = dict(zip(keys, items, strict=True))
+    completed: Iterator[Any] = iter(())
     try:
         if client is None:
             if scheduler:
@@ -73,32 +74,54 @@ def run_batch(
         futures = client.map(job, list(items), key=list(keys), pure=False)
         completed = as_completed(futures)
     except Exception as exc:  # no cluster to run on: every job failed
-        for item in pending.values():
-            record(failure(item, exc))
-        pending.clear()
+        _fail_all(pending, exc, record, failure)
     try:
-        while pending:
-            try:
-                future = next(completed)
-            except StopIteration:
-                break
-            except Exception as exc:  # the cluster itself failed: the rest failed
-                for item in pending.values():
-                    record(failure(item, exc))
-                pending.clear()
-                break
-            finished = pending.pop(future.key, None)
-            if finished is None:
-                continue
-            try:
-                outcome = future.result()
-            except (Exception, asyncio.CancelledError) as exc:  # KilledWorker, cancelled
-                outcome = failure(finished, exc)
-            record(outcome)
-        for item in pending.values():  # never reported back (should not happen)
-            record(failure(item, RuntimeError("the cluster never reported this job")))
+        _collect(completed, pending, record, failure)
     finally:
         if own and client is not None:
             client.close()
         if cluster is not None:
             cluster.close()
+
+
+def _collect(
+    completed: Iterator[Any],
+    pending: dict[str, T],
+    record: Callable[[dict[str, Any]], None],
+    failure: Callable[[T, BaseException], dict[str, Any]],
+) -> None:
+    """``record`` the result of every ``pending`` job (by key) as its future completes.
+
+    A job that raised or was cancelled, or every job left when the cluster itself fails or stops
+    reporting, gets its failure record instead.
+    """
+    while pending:
+        try:
+            future = next(completed)
+        except StopIteration:
+            break
+        except Exception as exc:  # the cluster itself failed: the rest failed
+            _fail_all(pending, exc, record, failure)
+            break
+        finished = pending.pop(future.key, None)
+        if finished is None:
+            continue
+        try:
+            outcome = future.result()
+        except (Exception, asyncio.CancelledError) as exc:  # KilledWorker, cancelled
+            outcome = failure(finished, exc)
+        record(outcome)
+    for item in pending.values():  # never reported back (should not happen)
+        record(failure(item, RuntimeError("the cluster never reported this job")))
+
+
+def _fail_all(
+    pending: dict[str, T],
+    exc: BaseException,
+    record: Callable[[dict[str, Any]], None],
+    failure: Callable[[T, BaseException], dict[str, Any]],
+) -> None:
+    """``record`` a failure from ``exc`` for every ``pending`` job, and empty ``pending``."""
+    for item in pending.values():
+        record(failure(item, exc))
+    pending.clear()

@@ -72,8 +72,11 @@ class FleetConfig(BaseModel):
 
 @dataclass(frozen=True)
 class GyroJob:
-    """One gyro to tune: its name, configuration (a dict, or the error that makes it
-    invalid), run folder, and whether to continue what the folder holds."""
+    """One gyro to tune.
+
+    Its name, configuration (a dict, or the error that makes it invalid), run folder, and
+    whether to continue what the folder holds.
+    """
 
     name: str
     config: dict[str, Any] | None
@@ -91,16 +94,7 @@ def load_fleet(path: str | Path) -> tuple[list[str], list[dict[str, Any] | str]]
     other gyros can still be tuned.
     """
     path = Path(path)
-    raw = read_toml(path)
-    try:
-        fleet = FleetConfig.model_validate(raw)
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        where = ".".join(str(x) for x in first["loc"])
-        if first["type"] == "extra_forbidden":
-            known = "config, seeds, [[gyro]]" if len(first["loc"]) == 1 else "name, config, device"
-            raise ConfigError(f"{path}: unknown key {where!r} (known: {known})") from None
-        raise ConfigError(f"{path}: {where}: {first['msg']}") from None
+    fleet = _fleet_file(path)
     entries = [GyroEntry(name=f"seed-{s}", device={"seed": s}) for s in fleet.seeds]
     entries += fleet.gyro
     if not entries:
@@ -115,28 +109,46 @@ def load_fleet(path: str | Path) -> tuple[list[str], list[dict[str, Any] | str]]
             base = read_toml(path.parent / fleet.config)
         except ConfigError as exc:
             raise ConfigError(f"{path}: config = {fleet.config!r}: {exc}") from None
-    configs: list[dict[str, Any] | str] = []
-    for e in entries:
-        if e.config is not None:
-            try:
-                data = read_toml(path.parent / e.config)
-            except ConfigError as exc:
-                configs.append(str(exc))
-                continue
-        elif base is not None:
-            data = copy.deepcopy(base)
-        else:
-            raise ConfigError(
-                f"{path}: gyro {e.name!r} has no config and the fleet file no base config = ..."
-            )
-        data.setdefault("device", {}).update(e.device)
-        try:
-            parse_config(data, f"gyro {e.name}")
-        except ConfigError as exc:
-            configs.append(str(exc))
-            continue
-        configs.append(data)
+    configs = [_gyro_config(path, e, base) for e in entries]
     return names, configs
+
+
+def _fleet_file(path: Path) -> FleetConfig:
+    """The fleet file at ``path``, validated; a :class:`ConfigError` names the first problem."""
+    raw = read_toml(path)
+    try:
+        return FleetConfig.model_validate(raw)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(x) for x in first["loc"])
+        if first["type"] == "extra_forbidden":
+            known = "config, seeds, [[gyro]]" if len(first["loc"]) == 1 else "name, config, device"
+            raise ConfigError(f"{path}: unknown key {where!r} (known: {known})") from None
+        raise ConfigError(f"{path}: {where}: {first['msg']}") from None
+
+
+def _gyro_config(path: Path, e: GyroEntry, base: dict[str, Any] | None) -> dict[str, Any] | str:
+    """Gyro ``e``'s configuration, or the error message that makes it invalid.
+
+    Its own configuration file, or a copy of ``base``, with its ``device`` options merged in.
+    """
+    if e.config is not None:
+        try:
+            data = read_toml(path.parent / e.config)
+        except ConfigError as exc:
+            return str(exc)
+    elif base is not None:
+        data = copy.deepcopy(base)
+    else:
+        raise ConfigError(
+            f"{path}: gyro {e.name!r} has no config and the fleet file no base config = ..."
+        )
+    data.setdefault("device", {}).update(e.device)
+    try:
+        parse_config(data, f"gyro {e.name}")
+    except ConfigError as exc:
+        return str(exc)
+    return data
 
 
 def tune_gyro(job: GyroJob) -> dict[str, Any]:

@@ -105,9 +105,11 @@ SchedulerOption = Annotated[
 def batch_bar(
     name: str, as_json: bool, line: Callable[[str], str | None]
 ) -> Iterator[Callable[[int, int, str], None]]:
-    """A progress bar on stderr for a batch of jobs; yields its ``(done, total, message)``
-    callback. ``line(message)`` gives the (rich markup) line to print for a message, or None;
-    nothing is printed with ``--json``, and into a file or pipe the bar is off too."""
+    """A progress bar on stderr for a batch of jobs; yields its ``(done, total, message)`` callback.
+
+    ``line(message)`` gives the (rich markup) line to print for a message, or None;
+    nothing is printed with ``--json``, and into a file or pipe the bar is off too.
+    """
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     with Progress(

@@ -1,15 +1,15 @@
-"""Conic programs in standard form, the solver interface, and the building blocks of both.
+r"""Conic programs in standard form, the solver interface, and the building blocks of both.
 
 A :class:`ConicProgram` is
 
 .. math::
 
-    \\min_x \\tfrac12 x^T P x + c^T x \\quad \\text{s.t.}\\quad b - A x = s \\in \\mathcal K,
+    \min_x \tfrac12 x^T P x + c^T x \quad \text{s.t.}\quad b - A x = s \in \mathcal K,
 
-where :math:`\\mathcal K` is the product, in this order, of a zero cone, a nonnegative orthant,
+where :math:`\mathcal K` is the product, in this order, of a zero cone, a nonnegative orthant,
 second-order cones and positive-semidefinite cones. A PSD cone of size :math:`n` takes the
 scaled lower triangle of a symmetric matrix in column-major order (off-diagonal entries multiplied
-by :math:`\\sqrt 2`), which is SCS's convention; backends that use another order permute rows.
+by :math:`\sqrt 2`), which is SCS's convention; backends that use another order permute rows.
 
 This is where objectives (which assemble programs) and solvers (which solve them) meet: a
 :class:`Solver` backend returns a :class:`ConicSolution` whose :class:`SolveStatus` is the
@@ -141,6 +141,7 @@ class ConicProgram:
     P: sp.csc_matrix | None = None
 
     def __post_init__(self) -> None:
+        """Check that ``c``, ``b``, ``cones`` and ``P`` agree with the shape of ``A``."""
         m, n = self.A.shape
         if self.c.shape != (n,):
             raise ValueError(f"c has shape {self.c.shape}, expected ({n},)")
@@ -175,6 +176,7 @@ class SolveStatus(enum.Enum):
     FAILED = "failed"
 
     def __str__(self) -> str:
+        """The status word, e.g. ``"solved"``."""
         return self.value
 
 

@@ -26,6 +26,7 @@ __all__ = ["csv_text", "read_csv"]
 
 # ------------------------------------------------------------------------------------- CSV
 def csv_text(f: np.ndarray, resp: np.ndarray, units: str) -> str:
+    """The CSV file of a sweep: the units comment (if any), the header, one row per frequency."""
     lines = [f"# response_units: {units}"] if units else []
     lines.append(CSV_HEADER)
     flat = resp.reshape(f.size, 4)
@@ -62,52 +63,12 @@ def _header_problem(fields: list[str]) -> str:
 
 
 def read_csv(path: Path) -> xr.DataArray:
+    """The sweep in the CSV file at ``path``, checked (:class:`FileFormatError` names the line)."""
     try:
         text = path.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError as exc:
         raise FileFormatError(f"{path}: not a UTF-8 text file ({exc.reason})") from exc
-    units: str | None = None
-    header_line = 0
-    rows: list[list[float]] = []
-    lines: list[int] = []
-    for number, line in enumerate(text.splitlines(), start=1):
-        if line.lstrip().startswith("#"):
-            match = UNITS_LINE.match(line.lstrip()[1:])
-            if match:
-                value = match.group(1).strip()
-                if units is not None and value != units:
-                    raise FileFormatError(
-                        f"{path}, line {number}: a second response_units ({value!r}) differs "
-                        f"from the first ({units!r})"
-                    )
-                units = value
-            continue
-        if not line.strip():
-            continue
-        fields = [x.strip() for x in next(csv.reader([line]))]
-        if not header_line:
-            if tuple(fields) != CSV_COLUMNS:
-                raise FileFormatError(
-                    f"{path}, line {number}: {_header_problem(fields)}; the header must be "
-                    f"exactly {CSV_HEADER}"
-                )
-            header_line = number
-            continue
-        if len(fields) != len(CSV_COLUMNS):
-            raise FileFormatError(
-                f"{path}, line {number}: {len(fields)} field(s); expected {len(CSV_COLUMNS)} "
-                f"({CSV_HEADER})"
-            )
-        row = []
-        for name, field in zip(CSV_COLUMNS, fields, strict=True):
-            try:
-                row.append(float(field))
-            except ValueError:
-                raise FileFormatError(
-                    f"{path}, line {number}: {name} is {field!r}, not a number"
-                ) from None
-        rows.append(row)
-        lines.append(number)
+    units, header_line, rows, lines = _parse_lines(text, path)
     if not header_line:
         raise FileFormatError(f"{path}: no header line; expected {CSV_HEADER}")
     if not rows:
@@ -124,3 +85,57 @@ def read_csv(path: Path) -> xr.DataArray:
 
     check_sweep(f, resp, str(path), lambda k: f"{path}, line {lines[k]}", value_at)
     return make_sweep(f, resp, units or "", str(path))
+
+
+def _parse_lines(text: str, path: Path) -> tuple[str | None, int, list[list[float]], list[int]]:
+    """The units, the header's line number (0: none), the data rows and their line numbers."""
+    units: str | None = None
+    header_line = 0
+    rows: list[list[float]] = []
+    lines: list[int] = []
+    for number, line in enumerate(text.splitlines(), start=1):
+        where = f"{path}, line {number}"
+        if line.lstrip().startswith("#"):
+            units = _comment_units(line, units, where)
+            continue
+        if not line.strip():
+            continue
+        fields = [x.strip() for x in next(csv.reader([line]))]
+        if not header_line:
+            if tuple(fields) != CSV_COLUMNS:
+                raise FileFormatError(
+                    f"{where}: {_header_problem(fields)}; the header must be exactly {CSV_HEADER}"
+                )
+            header_line = number
+            continue
+        rows.append(_data_row(fields, where))
+        lines.append(number)
+    return units, header_line, rows, lines
+
+
+def _comment_units(line: str, units: str | None, where: str) -> str | None:
+    """``units`` after a comment line: its ``response_units`` if it gives them (once only)."""
+    match = UNITS_LINE.match(line.lstrip()[1:])
+    if not match:
+        return units
+    value = match.group(1).strip()
+    if units is not None and value != units:
+        raise FileFormatError(
+            f"{where}: a second response_units ({value!r}) differs from the first ({units!r})"
+        )
+    return value
+
+
+def _data_row(fields: list[str], where: str) -> list[float]:
+    """The numbers of a data row, one per column of :data:`CSV_HEADER`."""
+    if len(fields) != len(CSV_COLUMNS):
+        raise FileFormatError(
+            f"{where}: {len(fields)} field(s); expected {len(CSV_COLUMNS)} ({CSV_HEADER})"
+        )
+    row = []
+    for name, field in zip(CSV_COLUMNS, fields, strict=True):
+        try:
+            row.append(float(field))
+        except ValueError:
+            raise FileFormatError(f"{where}: {name} is {field!r}, not a number") from None
+    return row

@@ -104,15 +104,7 @@ def read_manifest(path: str | os.PathLike[str]) -> Manifest:
         exist; naming the manifest and the experiment's number.
     """
     path = Path(path)
-    if not path.is_file():
-        raise ManifestError(f"{path}: no such manifest file")
-    try:
-        with open(path, "rb") as fh:
-            doc = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise ManifestError(f"{path}: not valid TOML: {exc}") from exc
-    except UnicodeDecodeError as exc:
-        raise ManifestError(f"{path}: not a UTF-8 text file ({exc.reason})") from exc
+    doc = _read_toml(path)
     _unknown(doc, _TOP_KEYS, str(path))
     for key in ("structure_potential_v", "electrodes", "experiment"):
         if key not in doc:
@@ -121,7 +113,27 @@ def read_manifest(path: str | os.PathLike[str]) -> Manifest:
     if not isinstance(device, str):
         raise ManifestError(f"{path}: device is {device!r}; expected a string")
     vg = _number(doc["structure_potential_v"], f"{path}: structure_potential_v")
-    electrodes = doc["electrodes"]
+    electrodes = _electrodes(doc["electrodes"], path)
+    tables = _experiment_tables(doc["experiment"], path)
+    experiments = [_experiment(k, table, path, electrodes) for k, table in enumerate(tables)]
+    return Manifest(path, vg, tuple(electrodes), tuple(experiments), device)
+
+
+def _read_toml(path: Path) -> dict[str, Any]:
+    """The manifest file's TOML document."""
+    if not path.is_file():
+        raise ManifestError(f"{path}: no such manifest file")
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise ManifestError(f"{path}: not valid TOML: {exc}") from exc
+    except UnicodeDecodeError as exc:
+        raise ManifestError(f"{path}: not a UTF-8 text file ({exc.reason})") from exc
+
+
+def _electrodes(electrodes: object, path: Path) -> list[str]:
+    """The manifest's ``electrodes``: a non-empty list of distinct, non-empty names."""
     if (
         not isinstance(electrodes, list)
         or not electrodes
@@ -133,37 +145,45 @@ def read_manifest(path: str | os.PathLike[str]) -> Manifest:
         )
     if len(set(electrodes)) != len(electrodes):
         raise ManifestError(f"{path}: electrodes {electrodes} has a name twice")
-    tables = doc["experiment"]
+    return electrodes
+
+
+def _experiment_tables(tables: object, path: Path) -> list[dict[str, Any]]:
+    """The manifest's ``[[experiment]]`` tables: a non-empty list."""
     if not isinstance(tables, list) or not all(isinstance(t, dict) for t in tables):
         raise ManifestError(
             f"{path}: experiment must be a list of [[experiment]] tables (note the double brackets)"
         )
     if not tables:
         raise ManifestError(f"{path}: the experiment list is empty")
-    experiments = []
-    for k, table in enumerate(tables):
-        where = f"{path}, experiment {k}"
-        _unknown(table, _EXPERIMENT_KEYS, where)
-        for key in _EXPERIMENT_KEYS:
-            if key not in table:
-                raise ManifestError(f"{where}: missing key {key!r}")
-        bias = table["bias_v"]
-        if not isinstance(bias, list) or len(bias) != len(electrodes):
-            count = f"{len(bias)} value(s)" if isinstance(bias, list) else repr(bias)
-            raise ManifestError(
-                f"{where}: bias_v has {count}; expected one per electrode ({len(electrodes)}: "
-                f"{', '.join(electrodes)})"
-            )
-        values = tuple(_number(b, f"{where}: bias_v[{p}]") for p, b in enumerate(bias))
-        name = table["file"]
-        if not isinstance(name, str) or not name:
-            raise ManifestError(f"{where}: file is {name!r}; expected a file name")
-        file = path.parent / name
-        if not file.is_file():
-            what = "is not a file" if file.exists() else "does not exist"
-            raise ManifestError(f"{where}: response file {file} {what}")
-        experiments.append(ManifestExperiment(k, values, file))
-    return Manifest(path, vg, tuple(electrodes), tuple(experiments), device)
+    return tables
+
+
+def _experiment(
+    k: int, table: dict[str, Any], path: Path, electrodes: list[str]
+) -> ManifestExperiment:
+    """Experiment ``k`` of the manifest at ``path``, checked; its response file must exist."""
+    where = f"{path}, experiment {k}"
+    _unknown(table, _EXPERIMENT_KEYS, where)
+    for key in _EXPERIMENT_KEYS:
+        if key not in table:
+            raise ManifestError(f"{where}: missing key {key!r}")
+    bias = table["bias_v"]
+    if not isinstance(bias, list) or len(bias) != len(electrodes):
+        count = f"{len(bias)} value(s)" if isinstance(bias, list) else repr(bias)
+        raise ManifestError(
+            f"{where}: bias_v has {count}; expected one per electrode ({len(electrodes)}: "
+            f"{', '.join(electrodes)})"
+        )
+    values = tuple(_number(b, f"{where}: bias_v[{p}]") for p, b in enumerate(bias))
+    name = table["file"]
+    if not isinstance(name, str) or not name:
+        raise ManifestError(f"{where}: file is {name!r}; expected a file name")
+    file = path.parent / name
+    if not file.is_file():
+        what = "is not a file" if file.exists() else "does not exist"
+        raise ManifestError(f"{where}: response file {file} {what}")
+    return ManifestExperiment(k, values, file)
 
 
 def load_manifest(path: str | os.PathLike[str]) -> xr.Dataset:
@@ -227,8 +247,11 @@ def _is_manifest(path: Path) -> bool:
 
 
 def load_data(path: str | os.PathLike[str]) -> xr.Dataset:
-    """A data set from a manifest (``.toml``, :func:`load_manifest`) or a netCDF file
-    (:func:`~sysid_core.data.schema.load_dataset`, not validated here: the fit does that)."""
+    """A data set from a manifest (``.toml``) or a netCDF file.
+
+    A manifest is read with :func:`load_manifest`, a netCDF file with
+    :func:`~sysid_core.data.schema.load_dataset` (not validated here: the fit does that).
+    """
     path = Path(path)
     return load_manifest(path) if _is_manifest(path) else load_dataset(path)
 

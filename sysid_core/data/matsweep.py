@@ -21,6 +21,7 @@ __all__ = ["read_mat", "write_mat"]
 
 # -------------------------------------------------------------------------------- MATLAB .mat
 def write_mat(tmp: Path, f: np.ndarray, resp: np.ndarray, units: str) -> None:
+    """Write a sweep to ``tmp`` as a MATLAB ``.mat`` file (``frequency_hz``, ``response``)."""
     from scipy.io import savemat
 
     variables: dict[str, Any] = {"frequency_hz": f, "response": resp}
@@ -30,16 +31,8 @@ def write_mat(tmp: Path, f: np.ndarray, resp: np.ndarray, units: str) -> None:
 
 
 def read_mat(path: Path) -> xr.DataArray:
-    from scipy.io import loadmat
-
-    try:
-        mat = loadmat(path, squeeze_me=False)
-    except NotImplementedError as exc:  # MATLAB v7.3 (HDF5)
-        raise FileFormatError(
-            f"{path}: a MATLAB v7.3 (HDF5) file; save it with save(..., '-v7') ({exc})"
-        ) from exc
-    except Exception as exc:  # scipy raises ValueError, TypeError, MatReadError, ...
-        raise FileFormatError(f"{path}: not a MATLAB .mat file ({exc})") from exc
+    """The sweep in the MATLAB ``.mat`` file at ``path``, checked (errors name the variable)."""
+    mat = _load_mat(path)
     found = sorted(k for k in mat if not k.startswith("__"))
     for name in ("frequency_hz", "response"):
         if name not in mat:
@@ -47,6 +40,36 @@ def read_mat(path: Path) -> xr.DataArray:
                 f"{path}: no variable {name!r} (found: {', '.join(found) or 'none'}); expected "
                 "frequency_hz (n,) and response (n, 2, 2) complex"
             )
+    f = _frequency_variable(mat, path)
+    r = _response_variable(mat, path, f.size)
+    units = _units_variable(mat, path)
+
+    def freq_at(k: int) -> str:
+        return f"{path}, variable 'frequency_hz'[{k}]"
+
+    def value_at(k: int, o: int, i: int) -> str:
+        return f"{path}, variable 'response'[{k}, {o}, {i}]"
+
+    check_sweep(f.astype(float), r.astype(complex), str(path), freq_at, value_at)
+    return make_sweep(f, r, units, str(path))
+
+
+def _load_mat(path: Path) -> dict[str, Any]:
+    """The variables of the ``.mat`` file at ``path`` (MATLAB v7 or older, not v7.3)."""
+    from scipy.io import loadmat
+
+    try:
+        return loadmat(path, squeeze_me=False)
+    except NotImplementedError as exc:  # MATLAB v7.3 (HDF5)
+        raise FileFormatError(
+            f"{path}: a MATLAB v7.3 (HDF5) file; save it with save(..., '-v7') ({exc})"
+        ) from exc
+    except Exception as exc:  # scipy raises ValueError, TypeError, MatReadError, ...
+        raise FileFormatError(f"{path}: not a MATLAB .mat file ({exc})") from exc
+
+
+def _frequency_variable(mat: dict[str, Any], path: Path) -> np.ndarray:
+    """``frequency_hz`` as a real vector (a row or column matrix is flattened)."""
     f = np.asarray(mat["frequency_hz"])
     if f.ndim == 2 and 1 in f.shape:
         f = f.ravel()
@@ -55,8 +78,12 @@ def read_mat(path: Path) -> xr.DataArray:
             f"{path}, variable 'frequency_hz': {f.dtype} of shape {f.shape}; expected a real "
             "vector (n,) in Hz"
         )
+    return f
+
+
+def _response_variable(mat: dict[str, Any], path: Path, n: int) -> np.ndarray:
+    """``response``: complex numbers of shape ``(n, 2, 2)``."""
     r = np.asarray(mat["response"])
-    n = f.size
     if r.dtype.kind not in "iufc":
         raise FileFormatError(f"{path}, variable 'response': {r.dtype}, not numbers")
     if r.shape != (n, 2, 2):
@@ -72,6 +99,11 @@ def read_mat(path: Path) -> xr.DataArray:
             f"{path}, variable 'response': real values ({r.dtype}), no imaginary part; the "
             "response must be complex"
         )
+    return r
+
+
+def _units_variable(mat: dict[str, Any], path: Path) -> str:
+    """``response_units``, a character string, or ``""`` if the file has none."""
     units = ""
     if "response_units" in mat:
         u = np.asarray(mat["response_units"])
@@ -81,12 +113,4 @@ def read_mat(path: Path) -> xr.DataArray:
                 "character string such as 'V/V'"
             )
         units = str(u.item()).strip() if u.size else ""
-
-    def freq_at(k: int) -> str:
-        return f"{path}, variable 'frequency_hz'[{k}]"
-
-    def value_at(k: int, o: int, i: int) -> str:
-        return f"{path}, variable 'response'[{k}, {o}, {i}]"
-
-    check_sweep(f.astype(float), r.astype(complex), str(path), freq_at, value_at)
-    return make_sweep(f, r, units, str(path))
+    return units

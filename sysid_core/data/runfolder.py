@@ -146,9 +146,11 @@ class RunFolder:
             self._handle = None
 
     def __enter__(self) -> RunFolder:
+        """The folder itself; its lock is released on leaving the ``with`` block."""
         return self
 
     def __exit__(self, *exc: object) -> None:
+        """Release the lock (:meth:`release`)."""
         self.release()
 
     # ------------------------------------------------------------------ measurements

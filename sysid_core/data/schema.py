@@ -250,8 +250,11 @@ def save_dataset(ds: xr.Dataset, path: str | os.PathLike[str]) -> Path:
 
 
 def read_netcdf(path: str | os.PathLike[str], what: str = "data") -> xr.Dataset:
-    """The netCDF file at ``path``, loaded into memory (the file is closed), or a
-    :class:`DataError` naming the file and ``what`` it should have held."""
+    """The netCDF file at ``path``, loaded into memory (the file is closed).
+
+    A missing or unreadable file raises a :class:`DataError` naming the file and ``what`` it
+    should have held.
+    """
     path = Path(path)
     if not path.exists():
         raise DataError(f"no {what} file at {path}")

@@ -1,5 +1,7 @@
-"""One sweep in memory: its 2x2 complex response per frequency, and the checks every format
-shares (:mod:`sysid_core.data.sweepfiles` reads and writes it in files)."""
+"""One sweep in memory (a 2x2 complex response per frequency) and the checks all formats share.
+
+:mod:`sysid_core.data.sweepfiles` reads and writes sweeps in files.
+"""
 
 from __future__ import annotations
 

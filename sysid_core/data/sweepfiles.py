@@ -159,6 +159,7 @@ def write_sweep(
 
 # -------------------------------------------------------------------------------------- netCDF
 def _read_nc(path: Path) -> xr.DataArray:
+    """The sweep in the netCDF file at ``path``: a one-experiment data set or a bare DataArray."""
     try:
         ds = load_dataset(path)
     except DataError as exc:
@@ -170,8 +171,22 @@ def _read_nc(path: Path) -> xr.DataArray:
             f"{path}: no variable 'response' and not a single variable (found: "
             f"{', '.join(names) or 'none'})"
         )
-    da = ds[name]
     where = f"{path}, variable {name!r}"
+    da = _nc_response(ds, name, where)
+    f = np.asarray(da["frequency"].values, dtype=float)
+    resp = np.asarray(da.values, dtype=complex)
+
+    def value_at(k: int, o: int, i: int) -> str:
+        return f"{where}[{k}, {o}, {i}]"
+
+    check_sweep(f, resp, where, lambda k: f"{path}, variable 'frequency'[{k}]", value_at)
+    units = str(da.attrs.get("units", ds.attrs.get("response_units", "")))
+    return make_sweep(f, resp, units, str(path))
+
+
+def _nc_response(ds: xr.Dataset, name: str, where: str) -> xr.DataArray:
+    """Variable ``name`` of ``ds`` as one complex 2x2 sweep, its measured points only."""
+    da = ds[name]
     if "experiment" in da.dims:
         if da.sizes["experiment"] != 1:
             raise FileFormatError(
@@ -194,12 +209,4 @@ def _read_nc(path: Path) -> xr.DataArray:
         )
     if "frequency" not in da.coords:
         raise FileFormatError(f"{where}: no 'frequency' coordinate (Hz)")
-    f = np.asarray(da["frequency"].values, dtype=float)
-    resp = np.asarray(da.values, dtype=complex)
-
-    def value_at(k: int, o: int, i: int) -> str:
-        return f"{where}[{k}, {o}, {i}]"
-
-    check_sweep(f, resp, where, lambda k: f"{path}, variable 'frequency'[{k}]", value_at)
-    units = str(da.attrs.get("units", ds.attrs.get("response_units", "")))
-    return make_sweep(f, resp, units, str(path))
+    return da

@@ -23,6 +23,7 @@ __all__ = ["read_s2p", "s2p_text"]
 
 # ------------------------------------------------------------------------- Touchstone (.s2p)
 def s2p_text(f: np.ndarray, resp: np.ndarray, units: str) -> str:
+    """The Touchstone ``.s2p`` file of a sweep (real/imaginary parts, Hz; units in a comment)."""
     import skrf  # type: ignore[import-untyped]
 
     comments = " sysid-toolkit response file: S_ij = y_i / u_j"
@@ -55,6 +56,7 @@ def _touchstone_records(text: str) -> list[int]:
 
 
 def read_s2p(path: Path) -> xr.DataArray:
+    """The sweep in the Touchstone ``.s2p`` file at ``path``, checked (errors name the line)."""
     import skrf
 
     raw = path.read_bytes()

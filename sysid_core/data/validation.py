@@ -124,6 +124,16 @@ def validate(ds: xr.Dataset) -> xr.Dataset:
     whose response is all zero or of absurd magnitude (beyond 1e±100), fewer than ``n_e + 1``
     experiments, and designs that violate the rank condition (6).
     """
+    resp = _check_response(ds)
+    f = _check_frequencies(ds)
+    bias, electrodes, vg = _check_bias(ds)
+    _check_values(ds, resp, f)
+    check_rank_condition(bias, vg, electrodes)
+    return ds
+
+
+def _check_response(ds: xr.Dataset) -> xr.DataArray:
+    """The data set's ``response``: complex, 2x2, with the dims of the schema."""
     if not isinstance(ds, xr.Dataset):
         raise DimensionError(f"expected an xarray.Dataset, got {type(ds).__name__}")
     if "response" not in ds:
@@ -138,6 +148,11 @@ def validate(ds: xr.Dataset) -> xr.Dataset:
             f"'response' is {resp.sizes['output']}x{resp.sizes['input']} (output x input); "
             "the two-mode gyro models need 2x2 data"
         )
+    return resp
+
+
+def _check_frequencies(ds: xr.Dataset) -> np.ndarray:
+    """The frequency grid (Hz): 1-D, at least two points, finite, positive, increasing."""
     if "frequency" not in ds.coords or ds["frequency"].ndim != 1:
         raise DimensionError("the data set needs a 1-D 'frequency' coordinate (Hz)")
     f = np.asarray(ds["frequency"].values, dtype=float)
@@ -156,6 +171,11 @@ def validate(ds: xr.Dataset) -> xr.Dataset:
             f"frequencies are {what} at index {i + 1}: {f[i]} Hz then {f[i + 1]} Hz; sort the "
             "points and drop duplicates (use a 'measured' mask for per-experiment grids)"
         )
+    return f
+
+
+def _check_bias(ds: xr.Dataset) -> tuple[np.ndarray, list[str] | None, float]:
+    """The biases ``(n_exp, n_e)``, the electrode names (if given) and ``structure_potential``."""
     if "bias" not in ds.coords and "bias" not in ds:
         raise MissingBiasError("the data set has no 'bias' coordinate (experiment, electrode)")
     bias_da = ds["bias"]
@@ -177,6 +197,11 @@ def validate(ds: xr.Dataset) -> xr.Dataset:
         raise MissingBiasError(
             "attribute 'structure_potential' (v_gyro, volts) is missing or not finite"
         )
+    return bias, electrodes, float(vg)
+
+
+def _check_values(ds: xr.Dataset, resp: xr.DataArray, f: np.ndarray) -> None:
+    """The measured points: the mask's shape, finite values, at least 2 per experiment."""
     mask = measured_mask(ds)
     if mask.shape != (resp.sizes["experiment"], f.size):
         raise DimensionError(f"'measured' has shape {mask.shape}; expected {resp.shape[:2]}")
@@ -194,6 +219,11 @@ def validate(ds: xr.Dataset) -> xr.Dataset:
     empty = np.flatnonzero(mask.sum(axis=1) < 2)
     if empty.size:
         raise FrequencyGridError(f"experiment {empty[0]} has fewer than 2 measured points")
+    _check_magnitudes(values, mask)
+
+
+def _check_magnitudes(values: np.ndarray, mask: np.ndarray) -> None:
+    """Every experiment's largest measured entry is nonzero and in the range the fit handles."""
     for k in range(values.shape[0]):
         mag = np.abs(values[k][mask[k]])
         if not mag.any():
@@ -208,5 +238,3 @@ def validate(ds: xr.Dataset) -> xr.Dataset:
                 f"{MIN_MAGNITUDE:g} to {MAX_MAGNITUDE:g} the fit can handle; express it in "
                 "other units (e.g. divide by a constant gain)"
             )
-    check_rank_condition(bias, float(vg), electrodes)
-    return ds

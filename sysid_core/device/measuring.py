@@ -30,8 +30,10 @@ _DIMS = ("frequency", "output", "input")
 
 
 def ground_truth(device: object) -> SimulatedDevice | None:
-    """``device`` (or the device inside a :class:`GuardedDevice`) if it is a
-    :class:`SimulatedDevice`, else None."""
+    """The :class:`SimulatedDevice` that ``device`` is or guards, else None.
+
+    ``device`` may be the device itself or a :class:`GuardedDevice` around it.
+    """
     raw = device.device if isinstance(device, GuardedDevice) else device
     return raw if isinstance(raw, SimulatedDevice) else None
 
@@ -104,6 +106,14 @@ def check_answer(
         Saying what is wrong with the answer.
     """
     f = np.asarray(frequencies_hz, dtype=float)
+    checked = _check_values(answer, f)
+    _check_frequencies(checked, f)
+    _check_labels(checked, labels)
+    return checked
+
+
+def _check_values(answer: object, f: np.ndarray) -> xr.DataArray:
+    """``answer`` as a complex, finite, not all zero 2x2 ``DataArray`` at ``f.size`` points."""
     if not isinstance(answer, xr.DataArray):
         raise InvalidAnswerError(
             f"the device returned a {type(answer).__name__}, not an xarray.DataArray"
@@ -128,6 +138,11 @@ def check_answer(
         raise InvalidAnswerError(
             "the device's answer is all zero: is the analyzer connected and driving the gyro?"
         )
+    return answer
+
+
+def _check_frequencies(answer: xr.DataArray, f: np.ndarray) -> None:
+    """The answer's ``frequency`` coordinate is the requested ``f`` (within rounding)."""
     if "frequency" not in answer.coords:
         raise InvalidAnswerError("the device's answer has no 'frequency' coordinate (Hz)")
     got = np.asarray(answer["frequency"].values, dtype=float)
@@ -143,6 +158,10 @@ def check_answer(
             f"the device answered at other frequencies than requested ({off.size} point(s); "
             f"first: {got[i]} Hz instead of {f[i]} Hz)"
         )
+
+
+def _check_labels(answer: xr.DataArray, labels: tuple[list[str], list[str]] | None) -> None:
+    """The answer's channel labels: present, distinct, and the earlier ``labels`` if given."""
     outs_ins: list[list[str]] = []
     for dim in ("output", "input"):
         if dim not in answer.coords:
@@ -156,7 +175,6 @@ def check_answer(
             f"the device's answer has channels {outs_ins[0]} x {outs_ins[1]}, but its earlier "
             f"answers had {labels[0]} x {labels[1]}"
         )
-    return answer
 
 
 class GuardedDevice:

@@ -90,8 +90,9 @@ class ReportsProgress(Protocol):
 
 
 def check_device(device: object, name: str = "device") -> Device:
-    """Check the :class:`~sysid_core.plugin.interfaces.Device` protocol's attributes; return
-    ``device``.
+    """Check the :class:`~sysid_core.plugin.interfaces.Device` protocol's attributes.
+
+    Returns ``device`` itself once its attributes pass.
 
     Raises
     ------

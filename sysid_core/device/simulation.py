@@ -82,6 +82,7 @@ class GyroTruth:
     bias_law: np.ndarray | None = None
 
     def __post_init__(self) -> None:
+        """Make the matrices float arrays and check the electrode names and bias law."""
         self.M = np.asarray(self.M, dtype=float)
         self.C = np.asarray(self.C, dtype=float)
         self.K0 = np.asarray(self.K0, dtype=float)

@@ -1,4 +1,4 @@
-"""How uncertain a least-squares fit is: the covariance of the stiffness parameters.
+r"""How uncertain a least-squares fit is: the covariance of the stiffness parameters.
 
 The least-squares fit minimises ``Σ_i ||G_i θ||²`` over the scaled unknowns ``θ`` (the rows
 ``G_i`` of data point ``i`` are linear in its measured response;
@@ -13,9 +13,9 @@ McCaffrey ("CR2"):
 
 .. math::
 
-    \\operatorname{Cov}(z) = H^{-1} \\Big(\\sum_i A_i^T (I - P_{ii})^{-1/2} r_i r_i^T
-    (I - P_{ii})^{-1/2} A_i\\Big) H^{-1},
-    \\quad A_i = G_i N,\\ H = \\sum_i A_i^T A_i,\\ P_{ii} = A_i H^{-1} A_i^T,
+    \operatorname{Cov}(z) = H^{-1} \Big(\sum_i A_i^T (I - P_{ii})^{-1/2} r_i r_i^T
+    (I - P_{ii})^{-1/2} A_i\Big) H^{-1},
+    \quad A_i = G_i N,\ H = \sum_i A_i^T A_i,\ P_{ii} = A_i H^{-1} A_i^T,
 
 with ``r_i = G_i θ̂`` the equation errors. It needs no noise model: the residuals themselves
 say how large the errors are, point by point (the noise is not the same everywhere: the

@@ -82,9 +82,12 @@ def _fit_one(
     solver: Solver,
     progress: Progress | None,
 ) -> FittedModel:
-    """Fit ``structure`` to ``dataset``; a quadratic law the design does not identify (see
-    :data:`LAW_CONDITION_LIMIT`) falls back to the linear law, saying so in ``progress`` and in
-    ``meta["law_test"]`` (a note of :func:`fit_structure`)."""
+    """Fit ``structure`` to ``dataset``, with the linear law if the quadratic one is not identified.
+
+    A quadratic law the design does not identify (see :data:`LAW_CONDITION_LIMIT`) falls back to
+    the linear law, saying so in ``progress`` and in ``meta["law_test"]`` (a note of
+    :func:`fit_structure`).
+    """
     t0 = time.perf_counter()
     facts: dict[str, object] = {}
     with threadpool_limits(limits=1, user_api="blas"):
@@ -121,9 +124,12 @@ LAW_TEST_LEVEL = 0.99
 
 
 def law_statistic(model: FittedModel) -> tuple[float, int] | None:
-    """Wald statistic of the quadratic terms ``L_p`` of a least-squares fit, and its degrees
-    of freedom: ``l^T Cov(l)^+ l`` over the entries (11, 12, 22) of every ``L_p``; χ²-distributed
-    when the law is linear. ``None`` without ``L_p`` or without a covariance (minimax)."""
+    """Wald statistic and degrees of freedom of a least-squares fit's quadratic terms ``L_p``.
+
+    The statistic is ``l^T Cov(l)^+ l`` over the entries (11, 12, 22) of every ``L_p``;
+    χ²-distributed when the law is linear. ``None`` without ``L_p`` or without a covariance
+    (minimax).
+    """
     if model.Lp is None or model.stiffness_factor is None or not len(model.electrodes):
         return None
     n_l = 3 * len(model.electrodes)

@@ -1,28 +1,28 @@
-"""The fit problem: scaled data, the linear equation-error operator, and conic-program pieces.
+r"""The fit problem: scaled data, the linear equation-error operator, and conic-program pieces.
 
-Scaling (see docs/fitting.md): with the band centre :math:`\\omega_0`,
-:math:`\\Omega=\\omega/\\omega_0`,
-:math:`\\delta=\\Omega^2-1` and :math:`\\varepsilon=\\max|\\delta|`, the unknowns are written
+Scaling (see docs/fitting.md): with the band centre :math:`\omega_0`,
+:math:`\Omega=\omega/\omega_0`,
+:math:`\delta=\Omega^2-1` and :math:`\varepsilon=\max|\delta|`, the unknowns are written
 
 .. math::
 
-    K_c = \\omega_0^2 (M + \\varepsilon \\tilde D_0),\\quad
-    K_p = \\omega_0^2 \\varepsilon \\tilde K_p / s_p,\\quad
-    C = \\omega_0 \\varepsilon \\tilde C,\\quad
-    P(\\nu) = s_\\psi \\textstyle\\sum_l \\tilde P_l \\nu^l,
+    K_c = \omega_0^2 (M + \varepsilon \tilde D_0),\quad
+    K_p = \omega_0^2 \varepsilon \tilde K_p / s_p,\quad
+    C = \omega_0 \varepsilon \tilde C,\quad
+    P(\nu) = s_\psi \textstyle\sum_l \tilde P_l \nu^l,
 
-where :math:`K_c = K_0 + \\sum_p K_p \\bar w_p` is the stiffness at the mean squared potentials
-:math:`\\bar w`, :math:`\\tilde w_p = (w_p - \\bar w_p)/s_p`, and
-:math:`\\nu = (\\omega-\\omega_0)/h` with :math:`h=\\max|\\omega-\\omega_0|`. Then
-:math:`Z = \\omega_0^2\\varepsilon\\,\\tilde Z` with
-:math:`\\tilde Z = \\tilde D_0 + \\sum_p \\tilde w_p \\tilde K_p - (\\delta/\\varepsilon) M +
-j\\Omega\\tilde C`, and with :math:`\\tilde\\psi = \\psi\\,\\omega_0^2\\varepsilon/s_\\psi` the
-equation error is :math:`E = s_\\psi (\\tilde P - \\tilde\\psi\\tilde Z)` (act) or
-:math:`s_\\psi(\\tilde P - \\tilde Z\\tilde\\psi)` (sen). Every unknown is then O(1e-3 … 1); the
-centring removes the near-cancellation of :math:`M\\omega^2` and :math:`K_0`.
+where :math:`K_c = K_0 + \sum_p K_p \bar w_p` is the stiffness at the mean squared potentials
+:math:`\bar w`, :math:`\tilde w_p = (w_p - \bar w_p)/s_p`, and
+:math:`\nu = (\omega-\omega_0)/h` with :math:`h=\max|\omega-\omega_0|`. Then
+:math:`Z = \omega_0^2\varepsilon\,\tilde Z` with
+:math:`\tilde Z = \tilde D_0 + \sum_p \tilde w_p \tilde K_p - (\delta/\varepsilon) M +
+j\Omega\tilde C`, and with :math:`\tilde\psi = \psi\,\omega_0^2\varepsilon/s_\psi` the
+equation error is :math:`E = s_\psi (\tilde P - \tilde\psi\tilde Z)` (act) or
+:math:`s_\psi(\tilde P - \tilde Z\tilde\psi)` (sen). Every unknown is then O(1e-3 … 1); the
+centring removes the near-cancellation of :math:`M\omega^2` and :math:`K_0`.
 
-The scaled unknowns form the vector :math:`\\theta` (layout in :class:`ParameterLayout`), and the
-equation error at every data point is linear in it: :math:`E_i = G_i\\theta`.
+The scaled unknowns form the vector :math:`\theta` (layout in :class:`ParameterLayout`), and the
+equation error at every data point is linear in it: :math:`E_i = G_i\theta`.
 """
 
 from __future__ import annotations
@@ -38,13 +38,7 @@ from sysid_core.data.schema import measured_mask, squared_potentials
 from sysid_core.data.validation import check_rank_condition, validate
 from sysid_core.model.structures import ModelStructure
 
-__all__ = [
-    "EPS_DAMPING",
-    "EPS_STIFFNESS",
-    "FitProblem",
-    "ParameterLayout",
-    "Scaling",
-]
+__all__ = ["EPS_DAMPING", "EPS_STIFFNESS", "FitProblem", "ParameterLayout", "Scaling"]
 
 #: Strict inequality C > 0 becomes C ⪰ EPS_DAMPING·ω0·ε·I (scaled: C̃ ⪰ EPS_DAMPING·I);
 #: it bounds Q below about 1/(ε·EPS_DAMPING) ≈ 1e9 for a 1.4 % band.
@@ -156,10 +150,12 @@ class Scaling:
         psi: np.ndarray,
         experiment: np.ndarray | None = None,
     ) -> Scaling:
-        """Choose the scaling for frequencies ``omega`` (rad/s), squared potentials ``w``
-        ``(n_exp, n_e)`` and responses ``psi`` ``(N, 2, 2)``; ``experiment`` (``(N,)``, the
-        experiment of each point) weights each experiment by its points in the quadratic
-        basis (default: equal weights)."""
+        """Choose the scaling for the data's frequencies, squared potentials and responses.
+
+        The frequencies ``omega`` are in rad/s, the squared potentials ``w`` ``(n_exp, n_e)``, the
+        responses ``psi`` ``(N, 2, 2)``; ``experiment`` (``(N,)``, the experiment of each point)
+        weights each experiment by its points in the quadratic basis (default: equal weights).
+        """
         omega0 = 0.5 * (omega.min() + omega.max())
         delta = (omega / omega0) ** 2 - 1
         eps = float(np.abs(delta).max())
@@ -190,9 +186,11 @@ class Scaling:
         return (x**2 - a - b * x) / h
 
     def w_polynomials(self) -> tuple[np.ndarray, np.ndarray | None]:
-        """Coefficients in ``w`` of ``w~_p`` and ``φ_p``: ``(lin, quad)`` with ``lin[p] =
-        (c0, c1)`` (``w~_p = c0 + c1 w_p``) and ``quad[p] = (d0, d1, d2)`` (``φ_p = d0 + d1 w_p
-        + d2 w_p²``), or ``quad = None`` without the quadratic basis."""
+        """Coefficients in ``w`` of ``w~_p`` and ``φ_p``: ``(lin, quad)``.
+
+        ``lin[p] = (c0, c1)`` (``w~_p = c0 + c1 w_p``) and ``quad[p] = (d0, d1, d2)``
+        (``φ_p = d0 + d1 w_p + d2 w_p²``), or ``quad = None`` without the quadratic basis.
+        """
         c1 = 1.0 / self.w_scale
         c0 = -self.w_center * c1
         lin = np.column_stack([c0, c1])
@@ -207,11 +205,12 @@ class Scaling:
 
 
 def _orthogonal_quadratic(x: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """Per column of ``x`` (``(n_exp, n_e)``), ``(a, b, h)`` such that ``(x² − a − b x) / h``
-    is orthogonal to ``1`` and ``x`` under ``weights`` and at most 1 in magnitude.
+    """Per column of ``x`` (``(n_exp, n_e)``), the ``(a, b, h)`` of its quadratic regressor.
 
-    A column with fewer than three distinct values has no quadratic part: ``h = 1`` and the
-    regressor is the (zero) residual; the rank condition refuses such a design before a fit.
+    The regressor ``(x² − a − b x) / h`` is orthogonal to ``1`` and ``x`` under ``weights`` and
+    at most 1 in magnitude. A column with fewer than three distinct values has no quadratic
+    part: ``h = 1`` and the regressor is the (zero) residual; the rank condition refuses such a
+    design before a fit.
     """
     out = np.zeros((x.shape[1], 3))
     sw = np.sqrt(weights / weights.sum())
@@ -281,8 +280,7 @@ class FitProblem:
         return self.scaling.scaled_w(self.w)
 
     def scaled_q(self) -> np.ndarray:
-        """The quadratic law's regressors ``φ`` per experiment, ``(n_exp, n_e)`` (see
-        :class:`Scaling`)."""
+        """The quadratic law's regressors ``φ``, ``(n_exp, n_e)`` (see :class:`Scaling`)."""
         return self.scaling.scaled_q(self.w)
 
     def _operator(self) -> np.ndarray:
@@ -364,8 +362,11 @@ class FitProblem:
         return float(lam[-1] / lam[0]) if lam[0] > 0 else float("inf")
 
     def _monomial_transform(self) -> np.ndarray:
-        """``T`` with ``theta = T theta_mono``, where ``theta_mono`` has the quadratic law's
-        unknowns ``L~_p`` multiplying ``x_p² − mean(x_p²)`` instead of ``φ_p``."""
+        """``T`` with ``theta = T theta_mono``: the quadratic law in plain centred monomials.
+
+        ``theta_mono`` has the quadratic law's unknowns ``L~_p`` multiplying ``x_p² − mean(x_p²)``
+        instead of ``φ_p``.
+        """
         lay, s = self.layout, self.scaling
         assert s.q_basis is not None
         x = self.scaled_w()[self.experiment]

@@ -1,5 +1,6 @@
-"""Assembly of the fit's conic programs from a
-:class:`~sysid_core.identification.problem.FitProblem`.
+"""Assembly of the fit's conic programs from a fit problem.
+
+Each program is built from a :class:`~sysid_core.identification.problem.FitProblem`:
 
 * :func:`minimax_program`: eq. (8)/(10), ``min γ`` s.t. σ̄(E_i) ≤ γ on the given points, plus
   the structural constraints ``M ⪰ I``, ``C ⪰ εI``, ``K_p ⪯ 0``, ``K(w_k) ⪰ εI``.

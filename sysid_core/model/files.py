@@ -89,11 +89,10 @@ def model_to_dataset(model: SavedModel) -> xr.Dataset:
 
 
 def model_fields(ds: xr.Dataset) -> dict[str, Any]:
-    """The keyword arguments of :class:`~sysid_core.model.fitted.FittedModel` but ``structure``
-    from a model file's data set.
+    """The keyword arguments of :class:`~sysid_core.model.fitted.FittedModel` from a model file.
 
-    Files written before channel names were saved get the default names ``y1, y2`` /
-    ``u1, u2``.
+    Every argument but ``structure``, from the file's data set ``ds``. Files written before
+    channel names were saved get the default names ``y1, y2`` / ``u1, u2``.
     """
     return dict(
         M=ds["M"].values,

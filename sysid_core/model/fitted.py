@@ -1,14 +1,14 @@
-"""A fitted bias-dependent gyro model, in physical units.
+r"""A fitted bias-dependent gyro model, in physical units.
 
 .. math::
 
-    Z(j\\omega; w) = -M\\omega^2 + K_0 + \\sum_p K_p w_p + jC\\omega,\\qquad
-    w_p = (v_{gyro} - \\delta v_p)^2,
+    Z(j\omega; w) = -M\omega^2 + K_0 + \sum_p K_p w_p + jC\omega,\qquad
+    w_p = (v_{gyro} - \delta v_p)^2,
 
-with the response :math:`P(\\nu) Z^{-1}` ("act") or :math:`Z^{-1}P(\\nu)` ("sen"), where
-:math:`P(\\nu)=\\sum_l P_l\\nu^l` is the complex feedthrough polynomial in the normalised
-frequency :math:`\\nu = (\\omega - \\omega_c)/h`. (The paper writes :math:`\\tilde R` in powers of
-:math:`\\omega`; the same polynomial space is spanned, with far better conditioning.)
+with the response :math:`P(\nu) Z^{-1}` ("act") or :math:`Z^{-1}P(\nu)` ("sen"), where
+:math:`P(\nu)=\sum_l P_l\nu^l` is the complex feedthrough polynomial in the normalised
+frequency :math:`\nu = (\omega - \omega_c)/h`. (The paper writes :math:`\tilde R` in powers of
+:math:`\omega`; the same polynomial space is spanned, with far better conditioning.)
 
 :func:`sysid_core.identification.fitting.model_from_problem` maps a fit's scaled solution to
 physical units; :func:`model_from_dataset` reads what :meth:`FittedModel.to_dataset` wrote
@@ -118,6 +118,7 @@ class FittedModel:
     Lp: np.ndarray | None = None
 
     def __post_init__(self) -> None:
+        """Fill in the defaults that depend on the electrodes and check the array shapes."""
         if self.poly_w.size == 0:
             self.poly_w = np.zeros((0, len(self.electrodes), 2, 2), dtype=complex)
         if self.Lp is not None:
@@ -147,8 +148,11 @@ class FittedModel:
         return len(self.electrodes)
 
     def check_bias(self, bias: Sequence[float] | np.ndarray | None) -> np.ndarray:
-        """``bias`` as a checked float array: numbers (else ``TypeError``), one per electrode
-        (else :class:`DataError`), finite (else :class:`ModelError`)."""
+        """``bias`` as a checked float array.
+
+        Its values must be numbers (else ``TypeError``), one per electrode (else
+        :class:`DataError`) and finite (else :class:`ModelError`).
+        """
         if bias is None:
             return np.zeros(self.n_electrodes)
         raw = np.asarray(bias)
@@ -185,8 +189,10 @@ class FittedModel:
         return f"{self.structure.name} model at {bias or 'no bias electrodes'}".replace(".", ",")
 
     def modal_stiffness(self, b: np.ndarray) -> np.ndarray:
-        """The stiffness at the checked bias ``b``; :class:`ModelError` unless it is positive
-        definite relative to ``M`` (two oscillating modes)."""
+        """The stiffness at the checked bias ``b``, checked to give two oscillating modes.
+
+        :class:`ModelError` unless it is positive definite relative to ``M``.
+        """
         k = self.stiffness(b)
         try:
             lam = scipy.linalg.eigh(k, self.M, eigvals_only=True)
@@ -237,8 +243,10 @@ class FittedModel:
         return self.stiffness_w(self.squared_potentials(bias))
 
     def poly_at(self, bias: Sequence[float] | np.ndarray | None = None) -> np.ndarray:
-        """The polynomial's coefficients at ``bias``: ``P_l + sum_p P_{l,p} w_p``,
-        shape ``(order + 1, 2, 2)``."""
+        """The polynomial's coefficients at ``bias``: ``P_l + sum_p P_{l,p} w_p``.
+
+        The shape is ``(order + 1, 2, 2)``.
+        """
         if self.poly_w.shape[0] == 0:
             return self.poly
         w = self.squared_potentials(bias)
@@ -352,8 +360,9 @@ class FittedModel:
 
 
 def model_from_dataset(ds: xr.Dataset, structure: ModelStructure) -> FittedModel:
-    """The model :meth:`FittedModel.to_dataset` wrote, with its ``structure`` rebuilt by the
-    caller (by name and order from ``ds.attrs``: see
+    """The model :meth:`FittedModel.to_dataset` wrote, with the ``structure`` the caller rebuilt.
+
+    The caller rebuilds it by name and order from ``ds.attrs`` (see
     :func:`sysid_core.api.load_model`).
 
     Files written before channel names were saved get the default names ``y1, y2`` / ``u1, u2``.

@@ -55,8 +55,10 @@ def normalised_stiffness(m: np.ndarray, k: np.ndarray) -> np.ndarray:
 
 
 def trace_deviation(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``t`` and ``d = (d1, d2)`` of symmetric 2×2 matrices (last two axes): the eigenvalues
-    are ``t ± |d|``, so ``|d|`` alone sets how far apart they are."""
+    """``t`` and ``d = (d1, d2)`` of symmetric 2×2 matrices (last two axes).
+
+    The eigenvalues are ``t ± |d|``, so ``|d|`` alone sets how far apart they are.
+    """
     t = 0.5 * (k[..., 0, 0] + k[..., 1, 1])
     d = np.stack([0.5 * (k[..., 0, 0] - k[..., 1, 1]), k[..., 0, 1]], axis=-1)
     return t, d

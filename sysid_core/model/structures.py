@@ -1,12 +1,12 @@
-"""The model-structure interface: where the extra dynamics sit relative to ``Z``.
+r"""The model-structure interface: where the extra dynamics sit relative to ``Z``.
 
 The toolkit's fit engine treats every structure as the equation error
 
-.. math:: E_{k,q} = P(\\omega_{k,q}) - \\mathcal{E}(\\psi_{k,q}, Z(j\\omega_{k,q}))
+.. math:: E_{k,q} = P(\omega_{k,q}) - \mathcal{E}(\psi_{k,q}, Z(j\omega_{k,q}))
 
-where :math:`P` is a complex polynomial of degree ``order`` in frequency and :math:`\\mathcal E`
-is bilinear: :math:`\\psi Z` when extra dynamics sit at the output ("act", eq. 7 of Kim &
-M'Closkey) or :math:`Z\\psi` when they sit at the input ("sen", eq. 10). A structure says which
+where :math:`P` is a complex polynomial of degree ``order`` in frequency and :math:`\mathcal E`
+is bilinear: :math:`\psi Z` when extra dynamics sit at the output ("act", eq. 7 of Kim &
+M'Closkey) or :math:`Z\psi` when they sit at the input ("sen", eq. 10). A structure says which
 (:attr:`ModelStructure.side`); the products follow from it.
 """
 
@@ -44,7 +44,7 @@ Side = Literal["output", "input"]
 
 
 class ModelStructure:
-    """How the measured response relates to the second-order dynamics ``Z``.
+    r"""How the measured response relates to the second-order dynamics ``Z``.
 
     Subclasses set :attr:`name`, :attr:`side` and :attr:`description`; the equation-error
     product and the model response follow from :attr:`side`.
@@ -56,16 +56,16 @@ class ModelStructure:
         :attr:`max_order` (default :data:`DEFAULT_ORDER`).
     bias_terms : int
         How many of the polynomial's lowest degrees also depend on the squared potentials:
-        :math:`P(\\nu, w) = \\sum_l \\nu^l (P_l + \\sum_p P_{l,p} w_p)` for ``l < bias_terms``
+        :math:`P(\nu, w) = \sum_l \nu^l (P_l + \sum_p P_{l,p} w_p)` for ``l < bias_terms``
         (default :data:`DEFAULT_BIAS_TERMS`; 0 is the paper's bias-independent :math:`P`). A
         capacitive feedthrough
-        :math:`F(s)` in the data makes :math:`\\psi Z = \\tilde R + F Z`, and :math:`F Z` holds
+        :math:`F(s)` in the data makes :math:`\psi Z = \tilde R + F Z`, and :math:`F Z` holds
         :math:`F K_p w_p`: terms that the bias-independent polynomial cannot absorb and that
         then bias the fitted :math:`K_p`. The relaxation keeps the fit linear in the unknowns.
     stiffness : {"linear", "quadratic", "auto"}
         The stiffness law in the squared potentials (default :data:`DEFAULT_STIFFNESS`):
         ``"linear"`` (the paper's
-        :math:`K_0 + \\sum_p K_p w_p`) or ``"quadratic"``, which adds :math:`\\sum_p L_p w_p^2`
+        :math:`K_0 + \sum_p K_p w_p`) or ``"quadratic"``, which adds :math:`\sum_p L_p w_p^2`
         (a real electrode's gap shrinks with its bias, so its stiffness is not exactly
         proportional to :math:`v^2`). Still linear in the unknowns; it needs each electrode at
         two biases besides the centre (a two-sided design). ``"auto"``: the fit decides (the
@@ -130,6 +130,7 @@ class ModelStructure:
         return np.linalg.solve(z, p)
 
     def __repr__(self) -> str:
+        """The class name with ``order``, ``bias_terms`` and ``stiffness``."""
         return (
             f"{type(self).__name__}(order={self.order}, bias_terms={self.bias_terms}, "
             f"stiffness={self.stiffness!r})"

@@ -104,28 +104,44 @@ def _bound_text(meta: Any) -> str:
 
 
 def _matches(value: Any, hint: Any) -> bool:
+    """Whether ``value`` matches the annotation ``hint`` (the rules of the module docstring)."""
     if hint is _NO_HINT or hint is Any:
         return True
     origin = typing.get_origin(hint)
     if origin is typing.Annotated:
         base, *meta = typing.get_args(hint)
-        if not _matches(value, base):
-            return False
-        for m in meta:
-            for attr, sign in _BOUNDS.items():
-                if type(m).__name__.lower() == attr:
-                    bound = getattr(m, attr)
-                    ok = {
-                        ">": value > bound,
-                        ">=": value >= bound,
-                        "<": value < bound,
-                        "<=": value <= bound,
-                    }[sign]
-                    if not ok:
-                        return False
-        return True
+        return _matches(value, base) and _within_bounds(value, meta)
     if origin in (typing.Union, types.UnionType):
         return any(_matches(value, a) for a in typing.get_args(hint))
+    plain = _matches_plain(value, hint)
+    if plain is not None:
+        return plain
+    if origin in (list, tuple, Sequence) or hint in (list, tuple):
+        return _matches_sequence(value, hint)
+    if origin is not None:  # another generic (dict[...], Callable[...]): no deeper check
+        return isinstance(value, origin) if isinstance(origin, type) else True
+    return isinstance(value, hint) if isinstance(hint, type) else True
+
+
+def _within_bounds(value: Any, meta: list[Any]) -> bool:
+    """Whether ``value`` meets every ``annotated_types`` bound (``Gt``, ``Ge``, ...) in ``meta``."""
+    for m in meta:
+        for attr, sign in _BOUNDS.items():
+            if type(m).__name__.lower() == attr:
+                bound = getattr(m, attr)
+                ok = {
+                    ">": value > bound,
+                    ">=": value >= bound,
+                    "<": value < bound,
+                    "<=": value <= bound,
+                }[sign]
+                if not ok:
+                    return False
+    return True
+
+
+def _matches_plain(value: Any, hint: Any) -> bool | None:
+    """Whether ``value`` matches a plain ``hint`` (None, bool, int, float, str); else None."""
     if hint is type(None) or hint is None:
         return value is None
     if hint is bool:
@@ -137,14 +153,15 @@ def _matches(value: Any, hint: Any) -> bool:
         return number and math.isfinite(value)
     if hint is str:
         return isinstance(value, str)
-    if origin in (list, tuple, Sequence) or hint in (list, tuple):
-        if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple)):
-            return False
-        args = [a for a in typing.get_args(hint) if a is not Ellipsis]
-        return all(any(_matches(v, a) for a in args) for v in value) if args else True
-    if origin is not None:  # another generic (dict[...], Callable[...]): no deeper check
-        return isinstance(value, origin) if isinstance(origin, type) else True
-    return isinstance(value, hint) if isinstance(hint, type) else True
+    return None
+
+
+def _matches_sequence(value: Any, hint: Any) -> bool:
+    """Whether ``value`` is a list or tuple whose items match one of ``hint``'s item types."""
+    if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple)):
+        return False
+    args = [a for a in typing.get_args(hint) if a is not Ellipsis]
+    return all(any(_matches(v, a) for a in args) for v in value) if args else True
 
 
 def check_options(

@@ -25,8 +25,11 @@ DWELL_TIME_CONSTANTS = 5.0
 
 
 def points_per_frequency(device: object) -> int:
-    """How many measurements a device makes per frequency point (its ``points_per_frequency``,
-    e.g. 2 for an analyzer that drives the two inputs one after the other; default 1)."""
+    """How many measurements a device makes per frequency point (default 1).
+
+    The device's ``points_per_frequency``, e.g. 2 for an analyzer that drives the two inputs one
+    after the other.
+    """
     value = getattr(device, "points_per_frequency", 1)
     return value if isinstance(value, int) and value >= 1 else 1
 
@@ -42,8 +45,11 @@ def _positive(value: object) -> float | None:
 def dwell(
     device: object, cfg_dwell: float | None, model: FittedModel | None
 ) -> tuple[float | None, str | None]:
-    """The dwell per point (seconds) and where it comes from: ``"device"``, ``"config"`` or
-    ``"estimated 5 Q/ω"``; ``(None, None)`` if nothing says (no model to estimate from)."""
+    """The dwell per point (seconds) and where it comes from.
+
+    The source is ``"device"``, ``"config"`` or ``"estimated 5 Q/ω"``; ``(None, None)`` if
+    nothing says (no model to estimate from).
+    """
     own = _positive(getattr(device, "dwell_s", None))
     if own is not None:
         return own, "device"

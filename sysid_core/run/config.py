@@ -59,8 +59,7 @@ class DeviceConfig(BaseModel):
 
 
 class ModelConfig(_Strict):
-    """``[model]``: the structure, its ``order``, ``bias_terms``, ``stiffness`` and its other
-    ``options``.
+    """``[model]``: the structure, its ``order``, ``bias_terms``, ``stiffness`` and ``options``.
 
     ``bias_terms`` (default 1) and ``stiffness`` (default ``"auto"``) are given to structures
     that take them (``act``, ``sen``); ``bias_terms = 0`` and ``stiffness = "linear"`` are the
@@ -125,8 +124,10 @@ class TuningConfig(_Strict):
 
     @property
     def criterion_options(self) -> dict[str, Any]:
-        """Keyword options for the criterion's factory: ``options`` plus ``target_hz`` and
-        ``tolerance_hz`` when given."""
+        """Keyword options for the criterion's factory.
+
+        ``options`` plus ``target_hz`` and ``tolerance_hz`` when given.
+        """
         given = {k: v for k in ("target_hz", "tolerance_hz") if (v := getattr(self, k)) is not None}
         both = sorted(set(given) & set(self.options))
         if both:

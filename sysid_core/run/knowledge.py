@@ -79,6 +79,7 @@ class Knowledge:
         self.items.append(Measured(sweep, modes))
 
     def __len__(self) -> int:
+        """The number of sweeps kept."""
         return len(self.items)
 
     def union(self) -> xr.Dataset:
@@ -93,8 +94,10 @@ class Knowledge:
         return [m for m in self.items if float(np.max(np.abs(m.bias - bias))) <= radius + SAME_V]
 
     def near(self, bias: np.ndarray, radius: float) -> xr.Dataset:
-        """The sweeps within ``radius`` volts of ``bias`` (every electrode) as one data set
-        (every sweep if none is that near)."""
+        """The sweeps within ``radius`` volts of ``bias`` (every electrode) as one data set.
+
+        Every sweep if none is that near.
+        """
         near = self._near(bias, radius) or self.items
         return concat_experiments([m.data for m in near]).sel(electrode=self.tuned)
 

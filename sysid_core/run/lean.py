@@ -118,7 +118,7 @@ class ModeGuess:
         )
 
     def moved_from(self, reference: ModeGuess) -> ModeGuess:
-        """This guess with the uncertainty of a predicted move from ``reference``'s modes."""
+        """The same guess with the uncertainty of a predicted move from ``reference``'s modes."""
         move = np.abs(self.frequencies_hz - reference.frequencies_hz)
         return ModeGuess(
             self.frequencies_hz,
@@ -143,11 +143,11 @@ def _merge(points: np.ndarray, tol: float) -> np.ndarray:
 
 
 def anchors(f: np.ndarray, bw: np.ndarray, plan: SweepPlan) -> np.ndarray:
-    """:data:`ANCHORS` far points around two modes, inside the band, plus two between them
-    when they are far apart.
+    """:data:`ANCHORS` far points around two modes, inside the band.
 
     Half on either side at ``reach/2`` and ``reach`` beyond the outer modes, ``reach =
-    max(refine_span_hz/2, 10 bw)``, moved inside the band where they would leave it.
+    max(refine_span_hz/2, 10 bw)``, moved inside the band where they would leave it; plus two
+    between the modes when they are far apart.
     """
     reach = max(plan.refine_span_hz / 2, 10 * float(np.max(bw)))
     side = ANCHORS // 2

@@ -250,8 +250,10 @@ class TuningRun:
         return ds, model
 
     def _answer(self, it: int, model: FittedModel, bias: np.ndarray, folder: Path) -> Answer:
-        """Step 3 at the current ``bias`` (:func:`sysid_core.run.answer.answer`), written to
-        ``tuning.json`` and said."""
+        """Step 3 at the current ``bias`` (:func:`sysid_core.run.answer.answer`).
+
+        The answer is written to ``tuning.json`` and said.
+        """
         space = BiasSpace(
             self.electrodes,
             self.space.tuned,

@@ -59,8 +59,10 @@ PLOT_FORMATS = ("png", "pdf", "svg")
 
 
 def save_figure(fig: Figure, path: str | os.PathLike[str]) -> Path:
-    """Write ``fig`` at ``path`` in the format of its extension (:data:`PLOT_FORMATS`),
-    atomically (the old file or the complete new one)."""
+    """Write ``fig`` at ``path`` in the format of its extension (:data:`PLOT_FORMATS`).
+
+    The write is atomic: ``path`` holds the old file or the complete new one.
+    """
     fmt = Path(path).suffix.lstrip(".").lower() or "png"
     if fmt not in PLOT_FORMATS:
         raise ValueError(f"cannot write a plot as {fmt!r}; use one of {', '.join(PLOT_FORMATS)}")
@@ -189,13 +191,23 @@ def bias_path_figure(
     ``regions[k - 1]``, the confidence region of iteration ``k``'s answer, adds error bars to
     its biases and its predicted split range next to the measured split.
     """
-    from matplotlib.ticker import FuncFormatter
-
     fig = _figure(1, 2, (11, 4.5))
     ax_b, ax_s = fig.axes
-    b = np.asarray(biases, dtype=float)
-    steps = np.arange(b.shape[0])
     regions = list(regions or [])
+    _bias_panel(ax_b, np.asarray(biases, dtype=float), electrodes, limits, regions)
+    _split_panel(ax_s, splits_hz, acceptance_hz, regions)
+    return fig
+
+
+def _bias_panel(
+    ax_b: Axes,
+    b: np.ndarray,
+    electrodes: Sequence[str],
+    limits: tuple[float, float] | None,
+    regions: list[ConfidenceRegion | None],
+) -> None:
+    """The left panel of :func:`bias_path_figure`: each electrode's bias per iteration."""
+    steps = np.arange(b.shape[0])
     for p, name in enumerate(electrodes):
         line = ax_b.plot(steps, b[:, p], "-o", ms=4, label=name)[0]
         for k, region in enumerate(regions[: b.shape[0] - 1], start=1):
@@ -223,6 +235,17 @@ def bias_path_figure(
         "bias of each electrode" + (" (bars: confidence region of each answer)" if regions else "")
     )
     ax_b.legend(fontsize=8, ncols=2)
+
+
+def _split_panel(
+    ax_s: Axes,
+    splits_hz: Sequence[float | None],
+    acceptance_hz: float | None,
+    regions: list[ConfidenceRegion | None],
+) -> None:
+    """The right panel of :func:`bias_path_figure`: the measured and predicted splits."""
+    from matplotlib.ticker import FuncFormatter
+
     it = np.arange(1, len(splits_hz) + 1)
     known = np.array([s is not None and np.isfinite(s) for s in splits_hz], dtype=bool)
     mhz = np.array(
@@ -243,28 +266,7 @@ def bias_path_figure(
         )
     shown = [r for r in regions[: len(splits_hz)] if r is not None]
     if shown:
-        # A range that reaches 0 runs off the bottom of the log axis (below every value shown).
-        values = [v for v in mhz[known]] + [r.split_ci_hz[1] * 1e3 for r in shown]
-        values += [acceptance_hz * 1e3] if acceptance_hz else []
-        bottom = max(min(v for v in values if v > 0) / 10, floor) if any(values) else floor
-        for k, region in enumerate(regions[: len(splits_hz)], start=1):
-            if region is None:
-                continue
-            lo, hi = (v * 1e3 for v in region.split_ci_hz)
-            ax_s.semilogy(
-                [k + 0.1, k + 0.1],
-                [max(lo, bottom / 2), max(hi, bottom)],
-                "-",
-                color="tab:orange",
-                lw=6,
-                alpha=0.6,
-                solid_capstyle="butt",
-                label=None
-                if k > 1 and region is not shown[0]
-                else (f"predicted split at the answer, {region.level:.0%} range"),
-            )
-        # both limits: set_ylim turns autoscaling off, and the acceptance line must stay in view
-        ax_s.set_ylim(bottom, 2 * max(v for v in values if v > 0))
+        _predicted_splits(ax_s, mhz[known], regions[: len(splits_hz)], shown, acceptance_hz, floor)
     if acceptance_hz is not None:
         ax_s.axhline(acceptance_hz * 1e3, color="tab:green", ls="--", label="acceptance")
     ax_s.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
@@ -275,7 +277,39 @@ def bias_path_figure(
     ax_s.set_xlim(0.5, len(splits_hz) + 0.5)
     ax_s.set_title("split after each iteration")
     ax_s.legend(fontsize=8)
-    return fig
+
+
+def _predicted_splits(
+    ax_s: Axes,
+    measured_mhz: np.ndarray,
+    regions: list[ConfidenceRegion | None],
+    shown: list[ConfidenceRegion],
+    acceptance_hz: float | None,
+    floor: float,
+) -> None:
+    """Each answer's predicted split range (mHz) next to the split its iteration measured."""
+    # A range that reaches 0 runs off the bottom of the log axis (below every value shown).
+    values = [v for v in measured_mhz] + [r.split_ci_hz[1] * 1e3 for r in shown]
+    values += [acceptance_hz * 1e3] if acceptance_hz else []
+    bottom = max(min(v for v in values if v > 0) / 10, floor) if any(values) else floor
+    for k, region in enumerate(regions, start=1):
+        if region is None:
+            continue
+        lo, hi = (v * 1e3 for v in region.split_ci_hz)
+        ax_s.semilogy(
+            [k + 0.1, k + 0.1],
+            [max(lo, bottom / 2), max(hi, bottom)],
+            "-",
+            color="tab:orange",
+            lw=6,
+            alpha=0.6,
+            solid_capstyle="butt",
+            label=None
+            if k > 1 and region is not shown[0]
+            else (f"predicted split at the answer, {region.level:.0%} range"),
+        )
+    # both limits: set_ylim turns autoscaling off, and the acceptance line must stay in view
+    ax_s.set_ylim(bottom, 2 * max(v for v in values if v > 0))
 
 
 def plot_bias_path(

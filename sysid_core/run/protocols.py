@@ -70,8 +70,10 @@ class RunContext:
         return exp.bias_step if it == 1 or exp.refine_bias_step is None else exp.refine_bias_step
 
     def design(self, bias: np.ndarray, it: int = 1) -> np.ndarray:
-        """The experiments of eq. (18) around ``bias``, checked against the rank condition (6)
-        (two-sided unless the law is linear or the design says otherwise)."""
+        """The experiments of eq. (18) around ``bias``, checked against the rank condition (6).
+
+        The design is two-sided unless the law is linear or the design says otherwise.
+        """
         exp, law = self.config.experiment, self.config.model.stiffness
         two_sided = exp.design == "two-sided" or (exp.design is None and law != "linear")
         design = design_experiments(
@@ -96,8 +98,10 @@ class Protocol(ABC):
     def data(
         self, it: int, bias: np.ndarray, folder: Path, center_hz: float | None, split_hz: float
     ) -> tuple[xr.Dataset, Prefit | None]:
-        """The data iteration ``it`` fits (measured into ``folder`` as needed), and its fit if
-        one was already made of exactly that data."""
+        """The data iteration ``it`` fits (measured into ``folder`` as needed), and a prior fit.
+
+        The fit is there if one was already made of exactly that data (else None).
+        """
 
     @abstractmethod
     def verify(
@@ -112,9 +116,12 @@ class Protocol(ABC):
         verification: Verification,
         region: ConfidenceRegion | None,
     ) -> None:
-        """What the iteration ended with: a move to the best reachable bias, the bias verified,
-        its verification and the answer's confidence region (the lean protocol keeps them;
-        the full protocol measures afresh and keeps nothing)."""
+        """What the iteration ended with, for the protocol to keep or not.
+
+        A move to the best reachable bias, the bias verified, its verification and the answer's
+        confidence region (the lean protocol keeps them; the full protocol measures afresh and
+        keeps nothing).
+        """
         return None
 
     def sweep(
@@ -149,6 +156,7 @@ class FullProtocol(Protocol):
     def data(
         self, it: int, bias: np.ndarray, folder: Path, center_hz: float | None, split_hz: float
     ) -> tuple[xr.Dataset, Prefit | None]:
+        """The iteration's own design around ``bias``, measured afresh (no prior fit)."""
         ctx = self.ctx
         design = ctx.design(bias, it)
         freqs = ctx.plan.refine(center_hz, split_hz)
@@ -163,6 +171,7 @@ class FullProtocol(Protocol):
     def verify(
         self, bias: np.ndarray, predicted: TuningResult, model: FittedModel, folder: Path
     ) -> Verification:
+        """Step 4 at ``bias`` with the run's own sweep plan."""
         return self._verify_with(bias, predicted, model, folder, self.ctx.plan)
 
 
@@ -189,6 +198,11 @@ class LeanProtocol(Protocol):
     def data(
         self, it: int, bias: np.ndarray, folder: Path, center_hz: float | None, split_hz: float
     ) -> tuple[xr.Dataset, Prefit | None]:
+        """Every sweep so far, or the sweeps near ``bias`` (see :class:`LeanProtocol`).
+
+        The local design is measured where the sweeps near ``bias`` do not meet the rank
+        condition; iteration 1 measures the design where the modes should be.
+        """
         ctx = self.ctx
         if it > 1 and self.moved:
             self.local = True
@@ -219,6 +233,7 @@ class LeanProtocol(Protocol):
     def verify(
         self, bias: np.ndarray, predicted: TuningResult, model: FittedModel, folder: Path
     ) -> Verification:
+        """Step 4 at ``bias``, locating the modes with grids around the predicted ones."""
         modes = model.modal(bias[self.ctx.space.index])
         bw = modes.bandwidth_hz
         if not np.all(np.isfinite(bw) & (bw > 0)):
@@ -242,6 +257,7 @@ class LeanProtocol(Protocol):
         verification: Verification,
         region: ConfidenceRegion | None,
     ) -> None:
+        """Keep whether the run moved, and the verified bias, modes and region if verified."""
         self.moved = moved
         if verification.verified and verification.frequencies_hz is not None:
             self.last_verified = (bias.copy(), np.asarray(verification.frequencies_hz, dtype=float))
@@ -250,13 +266,17 @@ class LeanProtocol(Protocol):
     def sweep(
         self, bias: np.ndarray, freqs: np.ndarray, path: Path, band: bool
     ) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
+        """One sweep at ``bias`` as :meth:`Protocol.sweep`, kept with the modes it shows."""
         found = super().sweep(bias, freqs, path, band)
         self.known.add(found[0], found[2])
         return found
 
     def _prediction_missed(self) -> tuple[str | None, Prefit | None]:
-        """Why the last prediction does not stand (the law holds only locally), or None with
-        the fit of all sweeps that judged it (the iteration's fit, when the union stands)."""
+        """Why the last prediction does not stand (the law holds only locally), or None.
+
+        With None comes the fit of all sweeps that judged it (the iteration's fit, when the union
+        stands).
+        """
         if self.last_verified is None:
             return None, None
         vb, vf = self.last_verified

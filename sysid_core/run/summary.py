@@ -133,9 +133,11 @@ class RunSummary:
 
     @property
     def paths(self) -> dict[str, Any]:
-        """The run's files: ``out``, ``summary``, ``config``, ``bias_path`` (the plot, if
-        written, in whichever format) and ``iterations`` (one folder per iteration, holding its
-        measurements, model and plots)."""
+        """The run's files: ``out``, ``summary``, ``config``, ``bias_path`` and ``iterations``.
+
+        ``bias_path`` is the plot, if written, in whichever format; ``iterations`` has one folder
+        per iteration, holding its measurements, model and plots.
+        """
         out = Path(self.out)
         plots = sorted(out.glob("bias_path.*"))
         return {

@@ -44,8 +44,10 @@ _TWO_PI = 2.0 * np.pi
 
 
 def stiffness_vector(model: FittedModel) -> np.ndarray:
-    """The model's stiffness parameters in
-    :func:`sysid_core.identification.covariance.stiffness_map` order."""
+    """The model's stiffness parameters, in the order of the covariance's ``stiffness_map``.
+
+    See :func:`sysid_core.identification.covariance.stiffness_map`.
+    """
 
     def entries(x: np.ndarray) -> list[float]:
         return [float(x[0, 0]), float(x[0, 1]), float(x[1, 1])]
@@ -65,8 +67,11 @@ def _split_hz(t: float | np.ndarray, r: float | np.ndarray) -> np.ndarray:
 def _split_and_frequency(
     t: np.ndarray, d: np.ndarray, t0: float, d0: np.ndarray, level: float
 ) -> tuple[tuple[float, float], tuple[float, float]]:
-    """The split range over the ``level`` ellipse of the drawn ``d`` (centred on the model's
-    ``d0``) and the central interval of the drawn mean modal frequency (Hz)."""
+    """The split range and the mean modal frequency's interval (Hz) of the drawn models.
+
+    The split range is over the ``level`` ellipse of the drawn ``d`` (centred on the model's
+    ``d0``); the interval is the central one of the drawn mean modal frequency.
+    """
     cov_d = np.cov(d, rowvar=False)
     q = -2.0 * math.log(1.0 - level)  # chi-square quantile, 2 degrees of freedom
     lam_d, vec_d = np.linalg.eigh(cov_d)
@@ -142,29 +147,64 @@ def confidence_region(
     m = sym(draws[:, 0:3])
     k0 = sym(draws[:, 3:6])
     kp = sym(draws[:, 6:].reshape(samples, n_e, 3))  # (S, n_e, 2, 2)
-    t, d = trace_deviation(normalised_stiffness(m, k0 + np.einsum("p,sp...->s...", w_hat, kp)))
-    tp, dp = trace_deviation(normalised_stiffness(m, kp))  # (S, n_e), (S, n_e, 2)
-    t_hat, d_hat = trace_deviation(
-        normalised_stiffness(model.M[None], model.stiffness_w(w_hat)[None])
-    )
-    t0, d0 = float(t_hat[0]), d_hat[0]
+    t, d, t0, d0 = _trace_deviation_at(model, m, k0, kp, w_hat)
 
     # Where the split is predicted: the applied bias if the device says, and the ellipse of d.
     if applied_bias is None:
         t_at, d_at, t_at0, d_at0 = t, d, t0, d0
     else:
         w_at = squared_potentials(v_gyro, np.asarray(applied_bias, dtype=float)[index])
-        t_at, d_at = trace_deviation(
-            normalised_stiffness(m, k0 + np.einsum("p,sp...->s...", w_at, kp))
-        )
-        t_a, d_a = trace_deviation(
-            normalised_stiffness(model.M[None], model.stiffness_w(w_at)[None])
-        )
-        t_at0, d_at0 = float(t_a[0]), d_a[0]
+        t_at, d_at, t_at0, d_at0 = _trace_deviation_at(model, m, k0, kp, w_at)
     split_ci, (f_lo, f_hi) = _split_and_frequency(t_at, d_at, t_at0, d_at0, level)
 
     # Each draw's degenerate (or on-target) point nearest w_hat.
     target = result.info.get("target_hz")
+    step = _degenerate_steps(model, m, kp, t, d, t0, d0, target)
+    w = np.clip(w_hat + step, 0.0, None)
+    sign = np.sign(v_gyro - bias[index])
+    sign[sign == 0] = 1.0
+    bias_draws = v_gyro - sign * np.sqrt(w)
+    a = (1.0 - level) / n_t
+    lo, hi = np.quantile(bias_draws, [a / 2, 1 - a / 2], axis=0)
+    box = np.column_stack([bias, bias])
+    box[index, 0], box[index, 1] = lo, hi
+    return ConfidenceRegion(
+        level=level,
+        bias_ci=box,
+        split_ci_hz=split_ci,
+        frequency_ci_hz=(f_lo, f_hi),
+        samples=samples,
+    )
+
+
+def _trace_deviation_at(
+    model: FittedModel, m: np.ndarray, k0: np.ndarray, kp: np.ndarray, w: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+    """``t`` and ``d`` of every drawn model and of ``model`` itself at squared potentials ``w``.
+
+    The drawn models are ``m``, ``k0`` (``(S, 2, 2)``) and ``kp`` (``(S, n_e, 2, 2)``).
+    """
+    t, d = trace_deviation(normalised_stiffness(m, k0 + np.einsum("p,sp...->s...", w, kp)))
+    t_own, d_own = trace_deviation(normalised_stiffness(model.M[None], model.stiffness_w(w)[None]))
+    return t, d, float(t_own[0]), d_own[0]
+
+
+def _degenerate_steps(
+    model: FittedModel,
+    m: np.ndarray,
+    kp: np.ndarray,
+    t: np.ndarray,
+    d: np.ndarray,
+    t0: float,
+    d0: np.ndarray,
+    target: float | None,
+) -> np.ndarray:
+    """Each draw's step in ``w`` from the answer to its degenerate (or on-target) point.
+
+    One least-squares step, ``δw = -D⁺ d`` (with the trace condition for a ``target``), less
+    the answer's own step under ``model``.
+    """
+    tp, dp = trace_deviation(normalised_stiffness(m, kp))  # (S, n_e), (S, n_e, 2)
     jac = np.transpose(dp, (0, 2, 1))  # (S, 2, n_e)
     rhs = -d
     if target is not None:
@@ -181,19 +221,4 @@ def confidence_region(
         own_tp = trace_deviation(normalised_stiffness(model.M[None], model.Kp[None]))[0][0]
         own_jac = np.vstack([own_jac, own_tp[None, :]])
         own_rhs = np.append(own_rhs, (_TWO_PI * float(target)) ** 2 - t0)
-    step = step - np.linalg.pinv(own_jac) @ own_rhs
-    w = np.clip(w_hat + step, 0.0, None)
-    sign = np.sign(v_gyro - bias[index])
-    sign[sign == 0] = 1.0
-    bias_draws = v_gyro - sign * np.sqrt(w)
-    a = (1.0 - level) / n_t
-    lo, hi = np.quantile(bias_draws, [a / 2, 1 - a / 2], axis=0)
-    box = np.column_stack([bias, bias])
-    box[index, 0], box[index, 1] = lo, hi
-    return ConfidenceRegion(
-        level=level,
-        bias_ci=box,
-        split_ci_hz=split_ci,
-        frequency_ci_hz=(f_lo, f_hi),
-        samples=samples,
-    )
+    return step - np.linalg.pinv(own_jac) @ own_rhs

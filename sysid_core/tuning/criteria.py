@@ -99,6 +99,7 @@ class BiasSpace:
     structure_potential: float
 
     def __post_init__(self) -> None:
+        """Check that the tuned electrodes exist and ``start_bias`` has one value per electrode."""
         unknown = [e for e in self.tuned if e not in self.electrodes]
         if unknown:
             raise ConfigError(
@@ -264,6 +265,7 @@ class Goal:
         }
 
     def __str__(self) -> str:
+        """The goal as a line: name, measured value, ``<=`` or ``>``, limit (mHz)."""
         sign = "<=" if self.met else ">"
         return f"{self.name} {self.value_hz * 1e3:.3g} mHz {sign} {self.limit_hz * 1e3:.3g} mHz"
 

@@ -14,6 +14,7 @@ __all__ = ["check_list", "check_names", "check_settings", "check_starts", "one_l
 
 
 def one_line(exc: BaseException) -> str:
+    """The message of ``exc`` on one line, after its type unless it is a :class:`SysidError`."""
     text = str(exc) if isinstance(exc, SysidError) else f"{type(exc).__name__}: {exc}"
     return " ".join(text.split())
 

@@ -1,5 +1,7 @@
-"""A study's results: the tidy data set, the statistics, the one-line failure summary and the
-side-by-side table with the paper's published numbers.
+"""A study's results: the tidy data set, the statistics and the tables.
+
+The tables are the one-line failure summary and the side-by-side table with the paper's
+published numbers.
 """
 
 from __future__ import annotations

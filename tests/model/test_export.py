@@ -22,7 +22,7 @@ from sysid_core.model.export import N_BAND_POINTS
 from sysid_core.model.fitted import FittedModel
 from sysid_core.tuning.criteria import degenerate_bias
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "cloverleaf-3exp.nc"
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "cloverleaf-3exp.nc"
 README_BIAS = [2.04, 4.39]
 
 

@@ -11,7 +11,7 @@ import pytest
 
 from sysid_core.batch.study.runner import load_study_config, plan_study
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import bench_time  # noqa: E402

@@ -42,7 +42,7 @@ from sysid_core.plugin.registry import get_registry
 from sysid_core.run.config import parse_config
 from sysid_core.run.pipeline import TuningRun
 
-EXAMPLE_DATA = Path(__file__).resolve().parents[1] / "examples" / "cloverleaf-3exp.nc"
+EXAMPLE_DATA = Path(__file__).resolve().parents[2] / "examples" / "cloverleaf-3exp.nc"
 FAST = {"resolution_hz": 1.0, "verify_resolution_hz": 0.02}
 TUNE = {"criterion": "degenerate", "electrodes": ["B1", "B2"], "start_bias": [0.0, 0.0, 0.0]}
 
@@ -522,6 +522,6 @@ def test_piped_output_is_not_cut() -> None:
 def test_every_error_class_is_documented() -> None:
     import sysid_core.errors
 
-    text = (Path(__file__).resolve().parents[1] / "docs" / "errors.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "docs" / "errors.md").read_text()
     missing = [name for name in sysid_core.errors.__all__ if f"`{name}`" not in text]
     assert not missing, f"not in docs/errors.md: {missing}"

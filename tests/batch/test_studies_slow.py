@@ -11,7 +11,7 @@ from truths import write_toml
 
 from sysid_core.batch.study.runner import load_study_config, run_study
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _small(tmp_path: Path, name: str, study: dict[str, object]) -> Path:

@@ -23,7 +23,7 @@ from sysid_core.errors import BiasLimitError, DeviceError
 from sysid_core.run.config import parse_config
 from sysid_core.run.pipeline import TuningRun
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 OPERATOR = ROOT / "examples" / "exchange_operator.py"
 TABLES: dict[str, Any] = {
     "model": {"stiffness": "linear"},  # one-sided design: 3 requests per iteration

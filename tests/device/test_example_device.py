@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from installing import environment
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "docs" / "examples" / "sysid-example-device"
+EXAMPLE = Path(__file__).resolve().parents[2] / "docs" / "examples" / "sysid-example-device"
 DISTRIBUTION = "sysid-example-device"
 
 
