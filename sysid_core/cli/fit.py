@@ -10,8 +10,14 @@ import typer
 from rich.table import Table
 
 from sysid_core.cli.app import command, err, out
+from sysid_core.errors import ConfigError
 from sysid_core.identification.objective import DEFAULT_OBJECTIVE, DEFAULT_SOLVER
-from sysid_core.model.structures import DEFAULT_BIAS_TERMS, DEFAULT_ORDER, DEFAULT_STIFFNESS
+from sysid_core.model.structures import (
+    DEFAULT_BIAS_TERMS,
+    DEFAULT_ORDER,
+    DEFAULT_STIFFNESS,
+    ModelStructure,
+)
 
 
 @command("plugins")
@@ -88,6 +94,10 @@ def fit_cmd(
     from sysid_core.data.io import check_output_file
     from sysid_core.data.manifest import data_files, load_data
 
+    if stiffness not in ModelStructure.STIFFNESS_LAWS:
+        raise ConfigError(
+            f"--stiffness {stiffness}: use one of {', '.join(ModelStructure.STIFFNESS_LAWS)}"
+        )
     target = out_path or data.with_name(f"{data.stem}.model.nc")
     inputs = data_files(data)
     check_output_file(target, inputs=inputs, force=force)
