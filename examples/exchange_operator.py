@@ -56,11 +56,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--stop-after", type=int, default=None, metavar="N")
     parser.add_argument("--idle-exit", type=float, default=None, metavar="S")
     parser.add_argument("--poll", type=float, default=0.05, metavar="S")
+    parser.add_argument(
+        "--clock", action="store_true", help="a bench with a clock: answers carry time_s"
+    )
     args = parser.parse_args(argv)
 
     folder = Path(args.dir)
     folder.mkdir(parents=True, exist_ok=True)
-    gyro = get_registry().device(args.device, seed=args.seed)
+    options: dict[str, object] = {"seed": args.seed}
+    if args.clock:
+        options["bench"] = {"clock": True}
+    gyro = get_registry().device(args.device, **options)
     malformed_sent: set[int] = set()
     answers = 0
     last = time.monotonic()

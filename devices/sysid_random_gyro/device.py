@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import ClassVar
+from collections.abc import Mapping
+from typing import Any, ClassVar
 
 import numpy as np
 from sysid_simgyro.device import ParametrizedGyro
@@ -69,6 +70,8 @@ class RandomGyro(ParametrizedGyro):
         Feedthrough level relative to the native peak; ``None`` keeps the seed's draw.
     extra_modes : bool, default True
         Add the seed's out-of-band modes.
+    bench : table, optional
+        ``[device.bench]``: a clock and slow drifts (:mod:`sysid_simgyro.bench`).
 
     Attributes
     ----------
@@ -97,6 +100,7 @@ class RandomGyro(ParametrizedGyro):
         "dynamics",
         "feedthrough",
         "extra_modes",
+        "bench",
     )
 
     def __init__(
@@ -108,6 +112,7 @@ class RandomGyro(ParametrizedGyro):
         dynamics: str = "random",
         feedthrough: float | None = None,
         extra_modes: bool = True,
+        bench: Mapping[str, Any] | None = None,
     ) -> None:
         checked_seed = as_seed(self.name, "seed", seed)
         if checked_seed is None:
@@ -132,6 +137,7 @@ class RandomGyro(ParametrizedGyro):
             extra_modes=extra_modes,
             dac_bits=dac_bits,
             seed=checked_seed,
+            bench=bench,
             params=params,
         )
         self.params: RandomGyroParameters = params

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import ClassVar
+from collections.abc import Mapping, Sequence
+from typing import Any, ClassVar
 
 import numpy as np
 import xarray as xr
@@ -11,6 +11,7 @@ import xarray as xr
 from sysid_core.device.simulation import GyroTruth
 from sysid_core.errors import BiasLimitError, ConfigError, FrequencyGridError
 from sysid_core.model.modal import modal_analysis
+from sysid_simgyro.bench import Bench, BenchSettings
 from sysid_simgyro.effects import ExtraMode, peak_magnitude, quantize_bias
 from sysid_simgyro.options import (
     COMMON_OPTIONS,
@@ -20,7 +21,7 @@ from sysid_simgyro.options import (
     as_seed,
 )
 from sysid_simgyro.params import GyroParameterSet
-from sysid_simgyro.physics import TWO_PI
+from sysid_simgyro.physics import TWO_PI, response_with_stiffness
 
 __all__ = ["ParametrizedGyro", "SimulatedGyro"]
 
@@ -68,6 +69,9 @@ class SimulatedGyro:
     seed : int or None
         Seed of the noise generator: the same seed gives identical measurement sequences;
         successive :meth:`measure` calls draw new noise.
+    bench : mapping or BenchSettings, optional
+        The ``[device.bench]`` table: a clock and slow drifts (:mod:`sysid_simgyro.bench`).
+        Default: a frozen bench (no time, no drift), as a simulation without a bench.
     """
 
     #: Device name used in configuration files.
@@ -88,6 +92,7 @@ class SimulatedGyro:
         extra_modes: Sequence[ExtraMode] = (),
         dac_bits: int = 16,
         seed: int | None = 0,
+        bench: Mapping[str, Any] | BenchSettings | None = None,
     ) -> None:
         self.truth = truth
         self.electrodes: tuple[str, ...] = tuple(str(e) for e in truth.electrodes)
@@ -110,6 +115,7 @@ class SimulatedGyro:
         self.peak_magnitude = peak_magnitude(truth, self.applied_bias(self.native_bias))
         #: Standard deviation of the complex noise per entry and point (response units).
         self.noise_std = self.noise * self.peak_magnitude
+        self._make_bench(BenchSettings.from_options(self.name, bench))
 
         centre = 0.5 * (self.band_hz[0] + self.band_hz[1])
         self.feedthrough_reference_hz = float(feedthrough_reference_hz or centre)
@@ -131,6 +137,44 @@ class SimulatedGyro:
             * mode.shape()
             for mode in self.extra_modes
         )
+
+    def _make_bench(self, settings: BenchSettings) -> None:
+        """The bench in time (a clock) when ``settings.clock``, with the device attributes of
+        the bench clock: ``tones``, ``settle_s`` and ``dwell_s``."""
+        self.bench_settings = settings
+        self.bench: Bench | None = None
+        if not settings.clock:
+            return
+        _, damped, q = modal_analysis(
+            self.truth.M, self.truth.C, self.truth.stiffness(self.applied_bias(self.native_bias))
+        )
+        omega = TWO_PI * np.asarray(damped)
+        slowest = int(np.argmax(np.asarray(q) / omega))
+        q_over_omega = float(q[slowest] / omega[slowest])
+        self.bench = Bench(settings, 2.0 * q_over_omega, q_over_omega, len(self.electrodes))
+        #: Frequencies one acquisition measures; seconds to settle after a bias change and
+        #: per acquisition (the bench clock of the device protocol).
+        self.tones = 1
+        self.settle_s = self.bench.settle_s
+        self.dwell_s = self.bench.dwell_s
+
+    @property
+    def time_s(self) -> float | None:
+        """The bench clock now (seconds since the device was made), or ``None`` without one."""
+        return None if self.bench is None else self.bench.now_s
+
+    def _drifted_stiffness(self, applied: np.ndarray, times_s: np.ndarray) -> np.ndarray:
+        """The true stiffness at each of ``times_s`` for the DAC's ``applied`` bias: ``(N, 2,
+        2)``, with the bench's temperature and charging then."""
+        assert self.bench is not None
+        delta_t = self.bench.temperature_k(times_s)
+        biases = applied[None, :] + self.bench.charge_v(times_s)
+        k = np.array([self.truth.stiffness(b.tolist()) for b in biases])
+        k = self.bench.stiffness_scale(delta_t)[:, None, None] * k
+        if self.bench.settings.split_tempco_ppm_per_k:
+            native = self.truth.stiffness(self.applied_bias(self.native_bias).tolist())
+            k = k + self.bench.split_term(delta_t, native, self.truth.M)
+        return k
 
     # ------------------------------------------------------------------ bias
     def check_bias(self, bias: Sequence[float]) -> np.ndarray:
@@ -235,7 +279,8 @@ class SimulatedGyro:
         xarray.DataArray
             Complex, dims ``("frequency", "output", "input")``, coordinates ``frequency`` (Hz,
             exactly the requested values), ``output`` ``["y1", "y2"]``, ``input``
-            ``["u1", "u2"]``; attributes ``device``, ``units``, ``bias`` and ``applied_bias``.
+            ``["u1", "u2"]`` and, on a bench with a clock, ``time_s`` (seconds, each point's
+            time stamp); attributes ``device``, ``units``, ``bias`` and ``applied_bias``.
 
         Raises
         ------
@@ -248,7 +293,17 @@ class SimulatedGyro:
         requested = self.check_bias(bias)
         f = self._check_frequencies(frequencies_hz).copy()
         applied = self.applied_bias(requested)
-        response = self.truth.response(applied, f) + self.background_response(f)
+        times = None
+        if self.bench is None:
+            response = self.truth.response(applied, f)
+        else:
+            self.bench.settle(applied)
+            times = self.bench.acquire(f.size, self.tones)
+            k = self._drifted_stiffness(applied, times)
+            response = response_with_stiffness(self.truth, k, TWO_PI * f)
+        response = response + self.background_response(f)
+        if self.bench is not None:  # the analyzer's gain and phase: on all it measures
+            response = response * self.bench.sweep_factor()
         if self.noise_std > 0:
             scale = self.noise_std / np.sqrt(2.0)
             response = response + scale * (
@@ -262,6 +317,7 @@ class SimulatedGyro:
                 "frequency": ("frequency", f, {"units": "Hz"}),
                 "output": ["y1", "y2"],
                 "input": ["u1", "u2"],
+                **({} if times is None else {"time_s": ("frequency", times, {"units": "s"})}),
             },
             name="response",
             attrs={
@@ -284,10 +340,15 @@ class SimulatedGyro:
         """The TRUE undamped modal frequencies at ``bias`` (Hz, ascending).
 
         Generalized eigenvalues of ``(K(w), M)`` of :attr:`truth` with every electrode, at the
-        bias the DAC really applies (:meth:`applied_bias`). Refuses biases it could not apply
+        bias the DAC really applies (:meth:`applied_bias`); on a bench with a clock, with its
+        drifts at the time now (:attr:`time_s`). Refuses biases it could not apply
         (:class:`BiasLimitError`); use ``truth.modal_frequencies_hz`` for arbitrary values.
         """
-        return self.truth.modal_frequencies_hz(self.applied_bias(bias))
+        applied = self.applied_bias(bias)
+        if self.bench is None:
+            return self.truth.modal_frequencies_hz(applied)
+        k = self._drifted_stiffness(applied, np.array([self.bench.now_s]))[0]
+        return modal_analysis(self.truth.M, self.truth.C, k)[0]
 
     def true_split_hz(self, bias: Sequence[float]) -> float:
         """The TRUE modal split at ``bias`` (Hz); see :meth:`true_modal_frequencies_hz`."""
@@ -321,6 +382,8 @@ class ParametrizedGyro(SimulatedGyro):
         Bias DAC resolution over ``bias_limits``; 0 applies biases exactly.
     seed : int or None, default 0
         Noise generator seed.
+    bench : table, optional
+        ``[device.bench]``: a clock and slow drifts (:mod:`sysid_simgyro.bench`).
     params : parameter set, optional
         Another instance of :attr:`parameters_class` (from Python only).
     """
@@ -338,6 +401,7 @@ class ParametrizedGyro(SimulatedGyro):
         extra_modes: bool = True,
         dac_bits: int = 16,
         seed: int | None = 0,
+        bench: Mapping[str, Any] | BenchSettings | None = None,
         params: GyroParameterSet | None = None,
     ) -> None:
         if params is None:
@@ -362,4 +426,5 @@ class ParametrizedGyro(SimulatedGyro):
             extra_modes=params.extra_modes if use_modes else (),
             dac_bits=dac_bits,
             seed=seed,
+            bench=bench,
         )

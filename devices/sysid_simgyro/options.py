@@ -19,7 +19,14 @@ __all__ = [
 ]
 
 #: Options every simulated gyro takes (see :class:`sysid_simgyro.device.SimulatedGyro`).
-COMMON_OPTIONS: tuple[str, ...] = ("noise", "feedthrough", "extra_modes", "dac_bits", "seed")
+COMMON_OPTIONS: tuple[str, ...] = (
+    "noise",
+    "feedthrough",
+    "extra_modes",
+    "dac_bits",
+    "seed",
+    "bench",
+)
 
 
 def _is_number(value: Any) -> bool:

@@ -285,7 +285,12 @@ class VisaDevice:
         return read
 
     # ------------------------------------------------------------------ the analyzer
-    def _sweep(self, f: np.ndarray) -> np.ndarray:
+    def _sweep(self, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The 2×2 response at ``f``, one sweep per pair, and each point's time stamp.
+
+        The stamps are the host's monotonic clock: per pair, the sweep's start and end
+        interpolated over its points, averaged over the pairs.
+        """
         c = self.aprof.commands
         fields = {
             "if_bandwidth_hz": f"{self.if_bandwidth_hz:g}",
@@ -304,7 +309,9 @@ class VisaDevice:
         self._write("analyzer", command)
         self._errors("analyzer", "the frequency list")
         out = np.empty((f.size, 2, 2), dtype=complex)
+        stamps = np.zeros(f.size)
         for i, j in ((0, 0), (0, 1), (1, 0), (1, 1)):
+            started = time.monotonic()
             pair = {"output": f"y{i + 1}", "input": f"u{j + 1}"}
             parameter = self.aprof.pairs[f"y{i + 1}/u{j + 1}"]
             for command in c.select:
@@ -328,7 +335,9 @@ class VisaDevice:
                     f"{f.size} were asked"
                 )
             out[:, i, j] = values[0::2] + 1j * values[1::2]
-        return out
+            ended = time.monotonic()
+            stamps += started + (ended - started) * np.arange(1, f.size + 1) / f.size
+        return out, stamps / 4
 
     # ------------------------------------------------------------------ the protocol
     def applied_bias(self, bias: Sequence[float]) -> np.ndarray:
@@ -345,11 +354,16 @@ class VisaDevice:
         if self._first is None:
             self._first = b.copy()
         read = self._apply(b)
-        data = self._sweep(f)
+        data, stamps = self._sweep(f)
         da = xr.DataArray(
             data,
             dims=("frequency", "output", "input"),
-            coords={"frequency": f, "output": ["y1", "y2"], "input": ["u1", "u2"]},
+            coords={
+                "frequency": f,
+                "output": ["y1", "y2"],
+                "input": ["u1", "u2"],
+                "time_s": ("frequency", stamps, {"units": "s"}),
+            },
         )
         da.attrs["applied_bias"] = [float(v) for v in read]
         return da

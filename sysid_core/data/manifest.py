@@ -33,7 +33,13 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.data.io import atomic_write
-from sysid_core.data.schema import load_dataset, make_dataset, measured_mask, save_dataset
+from sysid_core.data.schema import (
+    load_dataset,
+    make_dataset,
+    measured_mask,
+    point_times,
+    save_dataset,
+)
 from sysid_core.data.sweepfiles import make_sweep, read_sweep, write_sweep
 from sysid_core.data.validation import validate
 from sysid_core.errors import DataError, FileFormatError, ManifestError, MissingBiasError
@@ -231,6 +237,10 @@ def load_manifest(path: str | os.PathLike[str]) -> xr.Dataset:
         manifest.structure_potential_v,
         device=manifest.device,
         response_units=units.pop() if units else "",
+        times_s=[
+            np.asarray(s["time_s"].values, dtype=float) if "time_s" in s.coords else None
+            for s in sweeps
+        ],
     )
     try:
         return validate(ds)
@@ -341,6 +351,7 @@ def export_dataset(ds: xr.Dataset, folder: str | os.PathLike[str], format: str =
     ]
     for k, target in enumerate(files[:-1]):
         f, resp = f_all[mask[k]], values[k][mask[k]]
+        times = point_times(ds, k)
         if fmt == "nc":
             one = make_dataset(
                 [resp],
@@ -352,10 +363,11 @@ def export_dataset(ds: xr.Dataset, folder: str | os.PathLike[str], format: str =
                 outputs=[str(o) for o in ds["output"].values],
                 inputs=[str(i) for i in ds["input"].values],
                 response_units=units,
+                times_s=[times],
             )
             save_dataset(one, target)
         else:
-            write_sweep(target, make_sweep(f, resp), units)
+            write_sweep(target, make_sweep(f, resp, time_s=times), units)
         biases = ", ".join(_toml_float(b) for b in bias[k])
         lines += [
             "",

@@ -10,6 +10,7 @@ import xarray as xr
 
 from sysid_core.data.sweep import (
     check_sweep,
+    check_times,
     make_sweep,
 )
 from sysid_core.errors import (
@@ -20,11 +21,18 @@ __all__ = ["read_mat", "write_mat"]
 
 
 # -------------------------------------------------------------------------------- MATLAB .mat
-def write_mat(tmp: Path, f: np.ndarray, resp: np.ndarray, units: str) -> None:
-    """Write a sweep to ``tmp`` as a MATLAB ``.mat`` file (``frequency_hz``, ``response``)."""
+def write_mat(
+    tmp: Path, f: np.ndarray, resp: np.ndarray, units: str, times: np.ndarray | None = None
+) -> None:
+    """Write a sweep to ``tmp`` as a MATLAB ``.mat`` file (``frequency_hz``, ``response``).
+
+    With ``times``, also ``time_s`` (n,): each point's time stamp.
+    """
     from scipy.io import savemat
 
     variables: dict[str, Any] = {"frequency_hz": f, "response": resp}
+    if times is not None:
+        variables["time_s"] = np.asarray(times, dtype=float)
     if units:
         variables["response_units"] = units
     savemat(str(tmp), variables, appendmat=False, oned_as="column")
@@ -51,7 +59,11 @@ def read_mat(path: Path) -> xr.DataArray:
         return f"{path}, variable 'response'[{k}, {o}, {i}]"
 
     check_sweep(f.astype(float), r.astype(complex), str(path), freq_at, value_at)
-    return make_sweep(f, r, units, str(path))
+    times = None
+    if "time_s" in mat:
+        times = np.asarray(mat["time_s"], dtype=float).ravel()
+        check_times(times, lambda k: f"{path}, variable 'time_s'[{k}]", f.size)
+    return make_sweep(f, r, units, str(path), times)
 
 
 def _load_mat(path: Path) -> dict[str, Any]:

@@ -44,6 +44,7 @@ __all__ = [
     "load_dataset",
     "make_dataset",
     "measured_mask",
+    "point_times",
     "read_netcdf",
     "requested_bias",
     "save_dataset",
@@ -64,6 +65,7 @@ def make_dataset(
     outputs: Sequence[str] = ("y1", "y2"),
     inputs: Sequence[str] = ("u1", "u2"),
     response_units: str = "V/V",
+    times_s: Sequence[np.ndarray | None] | None = None,
 ) -> xr.Dataset:
     """Build a data set from per-experiment responses.
 
@@ -81,6 +83,11 @@ def make_dataset(
         ``v_gyro`` in volts.
     device, outputs, inputs, response_units
         Metadata.
+    times_s : sequence of (ndarray or None), optional
+        Per experiment, the time stamp of each point of its grid (seconds, the device's
+        clock), or ``None`` for an experiment measured at unknown times. Stored as the
+        variable ``time_s`` (``experiment``, ``frequency``; NaN where unknown or unmeasured)
+        when any experiment has them.
 
     Returns
     -------
@@ -135,7 +142,44 @@ def make_dataset(
     )
     if not same:
         ds["measured"] = (("experiment", "frequency"), mask)
+    if times_s is not None and any(t is not None for t in times_s):
+        ds["time_s"] = (("experiment", "frequency"), _time_table(times_s, grids, union, same))
+        ds["time_s"].attrs["units"] = "s"
     return ds
+
+
+def _time_table(
+    times_s: Sequence[np.ndarray | None],
+    grids: Sequence[np.ndarray],
+    union: np.ndarray,
+    same: bool,
+) -> np.ndarray:
+    """The ``time_s`` variable: each experiment's stamps at its grid's places, NaN elsewhere."""
+    if len(times_s) != len(grids):
+        raise DimensionError(f"{len(grids)} experiments but {len(times_s)} time-stamp arrays")
+    table = np.full((len(grids), union.size), np.nan)
+    for k, (times, grid) in enumerate(zip(times_s, grids, strict=True)):
+        if times is None:
+            continue
+        t = np.asarray(times, dtype=float).reshape(-1)
+        if t.size != grid.size:
+            raise DimensionError(
+                f"experiment {k}: {t.size} time stamps for {grid.size} frequencies"
+            )
+        pos = np.arange(grid.size) if same else np.searchsorted(union, grid)
+        table[k, pos] = t
+    return table
+
+
+def point_times(ds: xr.Dataset, k: int) -> np.ndarray | None:
+    """Experiment ``k``'s time stamps at its measured points (seconds), or ``None``.
+
+    ``None`` when it has none, or not at every point: a measurement at unknown times.
+    """
+    if "time_s" not in ds:
+        return None
+    t = np.asarray(ds["time_s"].values[k], dtype=float)[measured_mask(ds)[k]]
+    return t if np.all(np.isfinite(t)) else None
 
 
 def experiment_from_measurement(
@@ -173,6 +217,11 @@ def experiment_from_measurement(
         outputs=[str(o) for o in measurement["output"].values],
         inputs=[str(i) for i in measurement["input"].values],
         response_units=str(measurement.attrs.get("units", "V/V")),
+        times_s=[
+            np.asarray(measurement["time_s"].values, dtype=float)
+            if "time_s" in measurement.coords
+            else None
+        ],
     )
     ds.attrs["requested_bias"] = requested.tolist()
     return ds
@@ -191,6 +240,7 @@ def concat_experiments(datasets: Sequence[xr.Dataset]) -> xr.Dataset:
         raise DataError("no data sets to join")
     first = datasets[0]
     responses, grids, biases = [], [], []
+    times: list[np.ndarray | None] = []
     for ds in datasets:
         mask = measured_mask(ds)
         f = ds["frequency"].values
@@ -198,6 +248,7 @@ def concat_experiments(datasets: Sequence[xr.Dataset]) -> xr.Dataset:
             responses.append(ds["response"].values[k][mask[k]])
             grids.append(f[mask[k]])
             biases.append(ds["bias"].values[k])
+            times.append(point_times(ds, k))
     return make_dataset(
         responses,
         grids,
@@ -208,6 +259,7 @@ def concat_experiments(datasets: Sequence[xr.Dataset]) -> xr.Dataset:
         outputs=[str(o) for o in first["output"].values],
         inputs=[str(i) for i in first["input"].values],
         response_units=str(first.attrs.get("response_units", "V/V")),
+        times_s=times,
     )
 
 

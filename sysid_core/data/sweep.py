@@ -24,8 +24,10 @@ __all__ = [
     "INPUTS",
     "OUTPUTS",
     "SWEEP_FORMATS",
+    "TIMED_CSV_COLUMNS",
     "UNITS_LINE",
     "check_sweep",
+    "check_times",
     "make_sweep",
 ]
 
@@ -36,6 +38,8 @@ SWEEP_FORMATS = (".csv", ".s2p", ".mat", ".nc")
 CHANNELS = [f"{y}_{u}" for y in OUTPUTS for u in INPUTS]
 CSV_COLUMNS = ("frequency_hz", *[f"{c}_{part}" for c in CHANNELS for part in ("re", "im")])
 CSV_HEADER = ",".join(CSV_COLUMNS)
+#: The CSV columns of a sweep with time stamps: the 9 above, then ``time_s`` (seconds).
+TIMED_CSV_COLUMNS = (*CSV_COLUMNS, "time_s")
 UNITS_LINE = re.compile(r"^\s*response_units\s*:(.*)$")
 
 
@@ -45,12 +49,14 @@ def make_sweep(
     response: np.ndarray,
     units: str = "",
     source: str = "",
+    time_s: Sequence[float] | np.ndarray | None = None,
 ) -> xr.DataArray:
     """The DataArray of one sweep: complex, dims ``(frequency, output, input)``, shape (n, 2, 2).
 
-    Coordinates ``frequency`` (Hz), ``output`` (y1, y2), ``input`` (u1, u2); attributes
-    ``units`` (the response's units, ``""`` if unknown) and ``source`` (where it came from).
-    Nothing is checked here; :func:`read_sweep` checks before it calls this.
+    Coordinates ``frequency`` (Hz), ``output`` (y1, y2), ``input`` (u1, u2) and, when given,
+    ``time_s`` (each point's time stamp, seconds, the device's clock); attributes ``units``
+    (the response's units, ``""`` if unknown) and ``source`` (where it came from). Nothing is
+    checked here; :func:`read_sweep` checks before it calls this.
     """
     return xr.DataArray(
         np.asarray(response, dtype=complex),
@@ -59,6 +65,11 @@ def make_sweep(
             "frequency": ("frequency", np.asarray(frequency_hz, dtype=float), {"units": "Hz"}),
             "output": list(OUTPUTS),
             "input": list(INPUTS),
+            **(
+                {}
+                if time_s is None
+                else {"time_s": ("frequency", np.asarray(time_s, dtype=float), {"units": "s"})}
+            ),
         },
         name="response",
         attrs={"units": units, "source": source},
@@ -106,3 +117,13 @@ def check_sweep(
             f"{value_at(k, o, i)}: {resp[k, o, i]} at {f[k]} Hz; every value must be finite "
             f"({len(bad)} non-finite in all)"
         )
+
+
+def check_times(times: np.ndarray, where: Callable[[int], str], n_points: int) -> None:
+    """Time stamps of a sweep: one per point, finite (:class:`FileFormatError` locates one)."""
+    if times.shape != (n_points,):
+        raise FileFormatError(f"{where(0)}: {times.size} time stamps for {n_points} points")
+    bad = np.flatnonzero(~np.isfinite(times))
+    if bad.size:
+        k = int(bad[0])
+        raise FileFormatError(f"{where(k)}: time_s {float(times[k])!r}; time stamps must be finite")

@@ -42,6 +42,7 @@ from sysid_core.data.sweep import (
     OUTPUTS,
     SWEEP_FORMATS,
     check_sweep,
+    check_times,
     make_sweep,
 )
 from sysid_core.data.touchstone import read_s2p, s2p_text
@@ -145,13 +146,18 @@ def write_sweep(
         return f"cannot write {path}: frequency[{k}]"
 
     check_sweep(f, resp, f"cannot write {path}", freq_at, value_at, reading=False)
-    writer = {".csv": csv_text, ".s2p": s2p_text}.get(ext)
-    if writer is not None:
-        text = writer(f, resp, units)
+    times = (
+        np.asarray(response["time_s"].values, dtype=float) if "time_s" in response.coords else None
+    )
+    if ext == ".csv":
+        text = csv_text(f, resp, units, times)
+        return atomic_write(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    if ext == ".s2p":  # Touchstone has no place for time stamps
+        text = s2p_text(f, resp, units)
         return atomic_write(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
     if ext == ".mat":
-        return atomic_write(path, lambda tmp: write_mat(tmp, f, resp, units))
-    sweep = make_sweep(f, resp)
+        return atomic_write(path, lambda tmp: write_mat(tmp, f, resp, units, times))
+    sweep = make_sweep(f, resp, time_s=times)
     sweep.attrs = {}
     ds = xr.Dataset({"response": sweep}, attrs={"response_units": units})
     return save_dataset(ds, path)
@@ -164,7 +170,7 @@ def _read_nc(path: Path) -> xr.DataArray:
         ds = load_dataset(path)
     except DataError as exc:
         raise FileFormatError(str(exc)) from exc
-    names = [str(v) for v in ds.data_vars if str(v) != "measured"]
+    names = [str(v) for v in ds.data_vars if str(v) not in ("measured", "time_s")]
     name = "response" if "response" in names else (names[0] if len(names) == 1 else None)
     if name is None:
         raise FileFormatError(
@@ -181,7 +187,24 @@ def _read_nc(path: Path) -> xr.DataArray:
 
     check_sweep(f, resp, where, lambda k: f"{path}, variable 'frequency'[{k}]", value_at)
     units = str(da.attrs.get("units", ds.attrs.get("response_units", "")))
-    return make_sweep(f, resp, units, str(path))
+    times = _nc_times(ds, da, path, f.size)
+    return make_sweep(f, resp, units, str(path), times)
+
+
+def _nc_times(ds: xr.Dataset, da: xr.DataArray, path: Path, n: int) -> np.ndarray | None:
+    """The sweep's time stamps, or ``None`` without them.
+
+    A ``time_s`` coordinate of the response, or a one-experiment data set's ``time_s`` variable
+    at its measured points.
+    """
+    if "time_s" in da.coords:
+        times = np.asarray(da["time_s"].values, dtype=float).ravel()
+    elif "time_s" in ds.data_vars and "experiment" in ds["time_s"].dims:
+        times = np.asarray(ds["time_s"].values[0], dtype=float)[measured_mask(ds)[0]]
+    else:
+        return None
+    check_times(times, lambda k: f"{path}, variable 'time_s'[{k}]", n)
+    return times
 
 
 def _nc_response(ds: xr.Dataset, name: str, where: str) -> xr.DataArray:

@@ -109,7 +109,29 @@ def check_answer(
     checked = _check_values(answer, f)
     _check_frequencies(checked, f)
     _check_labels(checked, labels)
+    _check_times(checked)
     return checked
+
+
+def _check_times(answer: xr.DataArray) -> None:
+    """Check the optional ``time_s`` stamps (the bench clock): one per point, finite.
+
+    They need not increase along the frequency grid: a device may measure the points in any
+    order.
+    """
+    if "time_s" not in answer.coords:
+        return
+    t = answer["time_s"]
+    if t.dims != ("frequency",):
+        raise InvalidAnswerError(
+            f"the device's time_s coordinate has dims {t.dims}; expected ('frequency',): one "
+            "time stamp per point"
+        )
+    values = np.asarray(t.values)
+    if values.dtype.kind not in "iuf" or not np.all(np.isfinite(values.astype(float))):
+        raise InvalidAnswerError(
+            "the device's time_s stamps must be finite numbers of seconds (its own clock)"
+        )
 
 
 def _check_values(answer: object, f: np.ndarray) -> xr.DataArray:

@@ -9,7 +9,7 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.data.runfolder import RunFolder
-from sysid_core.data.schema import experiment_from_measurement
+from sysid_core.data.schema import experiment_from_measurement, point_times
 from sysid_core.device.measuring import GuardedDevice
 from sysid_core.errors import DeviceError
 from sysid_core.run.benchtime import points_per_frequency
@@ -58,6 +58,11 @@ class Bench:
         #: Measurements made or read so far, and their frequency points.
         self.measurements = 0
         self.points = 0
+        #: The earliest and latest time stamps seen (the device's clock), and how many
+        #: measurements came without them.
+        self.first_s: float | None = None
+        self.last_s: float | None = None
+        self.untimed = 0
 
     def measure(self, bias: np.ndarray, freqs: np.ndarray, path: Path) -> xr.Dataset:
         """Read ``path`` if it holds this measurement (resume), else measure and save it first."""
@@ -77,7 +82,25 @@ class Bench:
             self.say(f"read {path.relative_to(self.folder.path)} (measured earlier)")
         self.measurements += 1
         self.points += int(freqs.size) * points_per_frequency(self.device.device)
+        times = point_times(ds, 0)
+        if times is None or times.size == 0:
+            self.untimed += 1
+        else:
+            low, high = float(times.min()), float(times.max())
+            self.first_s = low if self.first_s is None else min(self.first_s, low)
+            self.last_s = high if self.last_s is None else max(self.last_s, high)
         return ds
+
+    @property
+    def clock_span_s(self) -> float | None:
+        """The device clock's span over the run (seconds), or ``None``.
+
+        The latest minus the earliest time stamp, when every measurement carried ``time_s``;
+        ``None`` when one did not.
+        """
+        if self.untimed or self.first_s is None or self.last_s is None:
+            return None
+        return self.last_s - self.first_s
 
     def close(self, failing: bool) -> None:
         """Call the device's optional ``close()`` when the run ends (made safe, released).

@@ -213,6 +213,7 @@ class TuningRun:
                 ),
                 confidence=step.result.confidence,
                 notes=self.notes,
+                clock_span_s=self.bench.clock_span_s,
             )
             write_json(self.out / "summary.json", summary.as_dict())
             self.say(f"iteration {it}: {ver.describe()} ({fit_time:.2f} s to identify)")

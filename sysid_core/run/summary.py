@@ -111,6 +111,7 @@ class RunSummary:
     bench_time_s: float | None = None
     dwell_s: float | None = None
     dwell_source: str | None = None
+    bench_time_source: str | None = None
 
     @classmethod
     def start(cls, device: str, bias: np.ndarray, space: BiasSpace, out: str) -> RunSummary:
@@ -161,6 +162,7 @@ class RunSummary:
             "bench_time_s": self.bench_time_s,
             "dwell_s": self.dwell_s,
             "dwell_source": self.dwell_source,
+            "bench_time_source": self.bench_time_source,
             "converged": self.converged,
             "verified": self.verified,
             "status": self.status,
@@ -199,12 +201,14 @@ def summarize(
     dwell: tuple[float | None, str | None],
     confidence: ConfidenceRegion | None,
     notes: list[str],
+    clock_span_s: float | None = None,
 ) -> RunSummary:
     """The run's summary after the last iteration of ``history`` (a new object).
 
     ``ver`` and ``goals`` are that iteration's verification and goals, ``dwell`` the seconds
     per point and where they come from (:func:`sysid_core.run.benchtime.dwell`): the bench
-    time is ``points × dwell``.
+    time is the device clock's span ``clock_span_s`` when every measurement carried time stamps
+    (``bench_time_source = "clock"``), else the estimate ``points × dwell`` (``"estimate"``).
     """
     last = history[-1]
     dwell_s, dwell_source = dwell
@@ -218,7 +222,16 @@ def summarize(
         points=points,
         dwell_s=dwell_s,
         dwell_source=dwell_source,
-        bench_time_s=None if dwell_s is None else points * dwell_s,
+        bench_time_s=(
+            clock_span_s
+            if clock_span_s is not None
+            else None
+            if dwell_s is None
+            else points * dwell_s
+        ),
+        bench_time_source=(
+            "clock" if clock_span_s is not None else None if dwell_s is None else "estimate"
+        ),
         converged=converged,
         verified=ver.verified,
         goals=[g.as_dict() for g in goals],

@@ -174,3 +174,26 @@ def test_bias_limits_are_checked_before_a_request_is_written(tmp_path: Path) -> 
     with pytest.raises(BiasLimitError, match=r"12\.0 V"):
         TuningRun(parse_config(tables), tmp_path / "run", plots=False)
     assert not folder.exists()
+
+
+def test_answers_with_time_stamps_give_the_run_its_clock(tmp_path: Path) -> None:
+    """An answer file's ``time_s`` column (§3.2) reaches the run: saved with each experiment,
+    and the bench time is the clock's span."""
+    folder = tmp_path / "exchange"
+    tables = exchange(folder)
+    tables["tuning"] = {**tables["tuning"], "max_iterations": 1}
+    cfg = write_toml(tmp_path / "exchange.toml", tables)
+    proc = operator(folder, "--clock")
+    try:
+        code = main(["tune", str(cfg), "--out", str(tmp_path / "run"), "--no-plots"])
+    finally:
+        log = stop(proc)
+    assert code == 0, log
+    header = (folder / "response-0001.csv").read_text().splitlines()[1]
+    assert header.endswith(",time_s")
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["bench_time_source"] == "clock" and summary["bench_time_s"] > 0
+    from sysid_core.data import load_dataset, point_times
+
+    first = load_dataset(tmp_path / "run" / "iter01" / "exp0.nc")
+    assert point_times(first, 0) is not None
