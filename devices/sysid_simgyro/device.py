@@ -21,7 +21,7 @@ from sysid_simgyro.options import (
     as_seed,
 )
 from sysid_simgyro.params import GyroParameterSet
-from sysid_simgyro.physics import TWO_PI, response_with_stiffness
+from sysid_simgyro.physics import TWO_PI
 
 __all__ = ["ParametrizedGyro", "SimulatedGyro"]
 
@@ -300,7 +300,7 @@ class SimulatedGyro:
             self.bench.settle(applied)
             times = self.bench.acquire(f.size, self.tones)
             k = self._drifted_stiffness(applied, times)
-            response = response_with_stiffness(self.truth, k, TWO_PI * f)
+            response = self.truth.response(applied, f, stiffness=k)
         response = response + self.background_response(f)
         if self.bench is not None:  # the analyzer's gain and phase: on all it measures
             response = response * self.bench.sweep_factor()

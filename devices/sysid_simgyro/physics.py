@@ -11,14 +11,13 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from sysid_core.device.simulation import GyroTruth, LowPass
+from sysid_core.device.simulation import LowPass
 
 __all__ = [
     "TWO_PI",
     "damping_matrix",
     "differential_phase_deg",
     "lowpass_with_differential_phase",
-    "response_with_stiffness",
     "rotation",
     "softening_stiffness",
     "stiffness_from_modes",
@@ -97,19 +96,3 @@ def lowpass_with_differential_phase(
     phase_1 = np.arctan(at_hz / corner_hz)
     corner_2 = at_hz / np.tan(phase_1 + np.radians(phase_deg))
     return LowPass(corner_hz=(float(corner_hz), float(corner_2)), gain=(gains[0], gains[1]))
-
-
-def response_with_stiffness(truth: GyroTruth, k: np.ndarray, omega: np.ndarray) -> np.ndarray:
-    """``truth``'s response at ``omega`` (rad/s) with the stiffness ``k`` ``(N, 2, 2)`` of each
-    point in place of its own (a bench that drifts while it sweeps), ``(N, 2, 2)``."""
-    s = 1j * omega[:, None, None]
-    z = -truth.M * omega[:, None, None] ** 2 + k + s * truth.C
-    g = np.linalg.solve(z, np.broadcast_to(truth.B, z.shape))
-    if truth.velocity_pickoff:
-        g = s * g
-    out = truth.R @ g
-    if truth.h_out is not None:
-        out = truth.h_out(omega) @ out
-    if truth.h_in is not None:
-        out = out @ truth.h_in(omega)
-    return out

@@ -117,11 +117,21 @@ class GyroTruth:
             w = w * (1.0 + self.bias_law * np.asarray(bias, dtype=float) ** 2)
         return self.K0 + np.tensordot(w, self.Kp, axes=1)
 
-    def response(self, bias: Sequence[float], frequencies_hz: np.ndarray) -> np.ndarray:
-        """Exact frequency response ``(N, 2, 2)`` at ``bias``."""
+    def response(
+        self,
+        bias: Sequence[float],
+        frequencies_hz: np.ndarray,
+        stiffness: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Exact frequency response ``(N, 2, 2)`` at ``bias``.
+
+        ``stiffness`` (``(N, 2, 2)``, one per frequency) replaces ``K(bias)``: a gyro that
+        changes while it is swept (a simulated bench that drifts).
+        """
         omega = 2 * np.pi * np.asarray(frequencies_hz, dtype=float)
         s = 1j * omega[:, None, None]
-        z = -self.M * omega[:, None, None] ** 2 + self.stiffness(bias) + s * self.C
+        k = self.stiffness(bias) if stiffness is None else stiffness
+        z = -self.M * omega[:, None, None] ** 2 + k + s * self.C
         g = np.linalg.solve(z, np.broadcast_to(self.B, z.shape))  # Z^-1 B
         if self.velocity_pickoff:
             g = s * g
