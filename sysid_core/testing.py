@@ -54,25 +54,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from numbers import Real
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 import pytest
 import xarray as xr
 
 from sysid_core.device.measuring import check_answer
-from sysid_core.device.protocol import Device, SimulatedDevice, check_device
+from sysid_core.device.protocol import Device, SimulatedDevice, check_device, is_real
 from sysid_core.errors import BiasLimitError, ConfigError
 from sysid_core.plugin.options import build
 
 __all__ = ["DeviceContract"]
 
 _DIMS = ("frequency", "output", "input")
-
-
-def _is_real(value: Any) -> bool:
-    return isinstance(value, (Real, np.floating, np.integer)) and not isinstance(value, bool)
 
 
 class DeviceContract:
@@ -165,14 +160,14 @@ class DeviceContract:
             f"bias_limits must be a (low, high) tuple, got {limits!r}"
         )
         low, high = limits
-        assert _is_real(low) and _is_real(high), f"bias_limits must be numbers, got {limits!r}"
+        assert is_real(low) and is_real(high), f"bias_limits must be numbers, got {limits!r}"
         assert math.isfinite(low) and math.isfinite(high), f"bias_limits must be finite: {limits!r}"
         assert low < high, f"bias_limits must be ordered (low < high), got {limits!r}"
 
     def test_structure_potential(self, device: Device) -> None:
         """``structure_potential``: a finite number."""
         v = device.structure_potential
-        assert _is_real(v) and math.isfinite(v), (
+        assert is_real(v) and math.isfinite(v), (
             f"structure_potential must be a finite number: {v!r}"
         )
 
@@ -183,7 +178,7 @@ class DeviceContract:
             f"band_hz must be a (low, high) tuple, got {band!r}"
         )
         low, high = band
-        assert _is_real(low) and _is_real(high), f"band_hz must be numbers, got {band!r}"
+        assert is_real(low) and is_real(high), f"band_hz must be numbers, got {band!r}"
         assert math.isfinite(low) and math.isfinite(high), f"band_hz must be finite: {band!r}"
         assert 0 < low < high, f"band_hz must be positive and ordered, got {band!r}"
 

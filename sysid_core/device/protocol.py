@@ -17,7 +17,7 @@ import xarray as xr
 
 from sysid_core.errors import DeviceError
 
-__all__ = ["Device", "ReportsProgress", "SimulatedDevice", "check_device"]
+__all__ = ["Device", "ReportsProgress", "SimulatedDevice", "check_device", "is_real"]
 
 
 @runtime_checkable
@@ -63,7 +63,8 @@ class SimulatedDevice(Device, Protocol):
         ...
 
 
-def _is_real(value: Any) -> bool:
+def is_real(value: Any) -> bool:
+    """A real number (Python or NumPy), not a bool."""
     return isinstance(value, (Real, np.floating, np.integer)) and not isinstance(value, bool)
 
 
@@ -72,7 +73,7 @@ def _pair(value: Any) -> tuple[float, float] | None:
         a, b = value
     except (TypeError, ValueError):
         return None
-    if not (_is_real(a) and _is_real(b) and math.isfinite(a) and math.isfinite(b)):
+    if not (is_real(a) and is_real(b) and math.isfinite(a) and math.isfinite(b)):
         return None
     return float(a), float(b)
 
@@ -128,7 +129,7 @@ def check_device(device: object, name: str = "device") -> Device:
             f"low < high, got {device.bias_limits!r}"  # type: ignore[attr-defined]
         )
     vg = device.structure_potential  # type: ignore[attr-defined]
-    if not _is_real(vg) or not math.isfinite(vg):
+    if not is_real(vg) or not math.isfinite(vg):
         raise DeviceError(
             f"{where}: 'structure_potential' must be a finite number of volts, got {vg!r}"
         )

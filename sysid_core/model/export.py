@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     import control
 
 
-class FittedModel(Protocol):
+class ExportableModel(Protocol):
     """What the exports need of a model (:class:`sysid_core.model.fitted.FittedModel` has it)."""
 
     structure: ModelStructure
@@ -65,7 +65,7 @@ BACKGROUND_POLES: tuple[tuple[float, ...], ...] = (
 
 
 def to_statespace(
-    model: FittedModel,
+    model: ExportableModel,
     bias: Sequence[float] | np.ndarray | None = None,
     band_hz: tuple[float, float] | None = None,
     *,
@@ -219,7 +219,7 @@ def to_statespace(
 
 
 def to_frd(
-    model: FittedModel,
+    model: ExportableModel,
     frequencies_hz: Sequence[float] | np.ndarray | None = None,
     bias: Sequence[float] | np.ndarray | None = None,
 ) -> control.FrequencyResponseData:
@@ -278,7 +278,7 @@ def to_frd(
     )
 
 
-def _band(model: FittedModel, band_hz: tuple[float, float] | None) -> tuple[float, float]:
+def _band(model: ExportableModel, band_hz: tuple[float, float] | None) -> tuple[float, float]:
     """``band_hz`` checked, or the fitted band ``omega_center ± omega_half`` (Hz)."""
     if band_hz is None:
         return (
