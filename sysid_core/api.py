@@ -210,6 +210,7 @@ def fit(
     registry: Registry | None = None,
     bias_terms: int | None = None,
     stiffness: str | None = None,
+    drift: bool = False,
 ) -> FittedModel:
     """Fit one bias-dependent model to every experiment of ``dataset`` at once.
 
@@ -242,6 +243,10 @@ def fit(
         default: the quadratic law if a Wald test of its terms rejects them being zero at
         99 %, else the linear law on the same data, which a one-sided design always gets;
         ``model.meta["stiffness_law"]`` says which).
+    drift : bool
+        Estimate a common frequency drift from the time stamps (``time_s``) and fit the model of
+        the gyro at the latest one (``model.meta["drift_rate_per_h"]``, relative per hour; see
+        :mod:`sysid_core.identification.drift`). Default false.
 
     Returns
     -------
@@ -307,7 +312,7 @@ def fit(
     )
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be callable, not {type(progress).__name__}")
-    model, notes = fit_structure(dataset, structure, objective, solver, progress)
+    model, notes = fit_structure(dataset, structure, objective, solver, progress, drift=drift)
     for message in notes:
         warnings.warn(message, FitWarning, stacklevel=2)
     return model

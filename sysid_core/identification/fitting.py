@@ -22,6 +22,7 @@ from sysid_core.data.schema import measured_mask
 from sysid_core.data.validation import check_rank_condition
 from sysid_core.errors import RankConditionError, TooFewExperimentsError
 from sysid_core.identification.covariance import stiffness_factor
+from sysid_core.identification.drift import estimate_drift, has_time_stamps
 from sysid_core.identification.objective import Objective, ObjectiveResult, Progress
 from sysid_core.identification.problem import FitProblem
 from sysid_core.model.fitted import DEFAULT_INPUTS, DEFAULT_OUTPUTS, FittedModel
@@ -58,18 +59,31 @@ def fit_structure(
     objective: Objective,
     solver: Solver,
     progress: Progress | None = None,
+    drift: bool | float = False,
 ) -> tuple[FittedModel, list[str]]:
     """Fit ``structure`` to ``dataset`` with ``objective`` and ``solver``.
 
     Returns the model and the notes a user should read (one line each): the reasons to distrust
     it (:func:`check_fit`) and a quadratic law that fell back to the linear one. With
-    ``structure.stiffness == "auto"`` the law is chosen by :func:`law_statistic`.
+    ``structure.stiffness == "auto"`` the law is chosen by :func:`law_statistic`. ``drift``:
+    ``True`` estimates a common frequency drift from the time stamps and fits the model of the
+    gyro at the latest one (:mod:`sysid_core.identification.drift`; data without time stamps
+    are fitted without, with a note); a number is a known rate (relative, per second).
     """
+    notes: list[str] = []
+    rate = 0.0
+    if drift is True:
+        if has_time_stamps(dataset):
+            rate = estimate_drift(dataset, structure, objective, solver)
+        else:
+            notes.append("no time stamps at every point: the drift is not modelled")
+    elif drift is not False:
+        rate = float(drift) if has_time_stamps(dataset) else 0.0
     if getattr(structure, "stiffness", "linear") == "auto":
-        model = _fit_auto_law(dataset, structure, objective, solver, progress)
+        model = _fit_auto_law(dataset, structure, objective, solver, progress, rate)
     else:
-        model = _fit_one(dataset, structure, objective, solver, progress)
-    notes = check_fit(dataset, model)
+        model = _fit_one(dataset, structure, objective, solver, progress, rate)
+    notes = check_fit(dataset, model) + notes
     if model.meta.get("law_fallback"):
         notes.append(str(model.meta["law_test"]))
     return model, notes
@@ -81,6 +95,7 @@ def _fit_one(
     objective: Objective,
     solver: Solver,
     progress: Progress | None,
+    drift_rate: float = 0.0,
 ) -> FittedModel:
     """Fit ``structure`` to ``dataset``, with the linear law if the quadratic one is not identified.
 
@@ -91,14 +106,14 @@ def _fit_one(
     t0 = time.perf_counter()
     facts: dict[str, object] = {}
     with threadpool_limits(limits=1, user_api="blas"):
-        problem = FitProblem(dataset, structure)
+        problem = FitProblem(dataset, structure, drift_rate)
         if problem.layout.quadratic:
             law_condition = problem.normal_condition(law_basis=True)
             facts["law_condition"] = law_condition
             if not law_condition <= LAW_CONDITION_LIMIT:
                 linear = copy.copy(structure)
                 linear.stiffness = "linear"
-                problem = FitProblem(dataset, linear)
+                problem = FitProblem(dataset, linear, drift_rate)
                 facts.update(
                     stiffness_law="linear",
                     law_fallback=True,
@@ -116,6 +131,11 @@ def _fit_one(
     result, mass_factor = unit_mass(problem, result)
     if mass_factor is not None:
         facts["mass_normalised"] = mass_factor
+    if problem.drift_rate:
+        facts.update(
+            drift_rate_per_h=problem.drift_rate * 3600.0,
+            drift_reference_time_s=problem.reference_time_s,
+        )
     return model_from_problem(problem, result, solver=solver.name, fit_time_s=elapsed, **facts)
 
 
@@ -148,6 +168,7 @@ def _fit_auto_law(
     objective: Objective,
     solver: Solver,
     progress: Progress | None,
+    drift_rate: float = 0.0,
 ) -> FittedModel:
     """``stiffness = "auto"``: the quadratic law where the data show it, else the linear one.
 
@@ -168,10 +189,10 @@ def _fit_auto_law(
             raise TooFewExperimentsError("no bias electrodes: nothing depends on w")
         check_rank_condition(bias, vg, quadratic=True)
     except (RankConditionError, TooFewExperimentsError):
-        model = _fit_one(dataset, linear, objective, solver, progress)
+        model = _fit_one(dataset, linear, objective, solver, progress, drift_rate)
         model.meta.update(stiffness_law="linear", law_test="design does not identify L_p")
         return model
-    quad = _fit_one(dataset, quadratic, objective, solver, progress)
+    quad = _fit_one(dataset, quadratic, objective, solver, progress, drift_rate)
     if quad.meta.get("law_fallback"):
         return quad
     found = law_statistic(quad)
@@ -184,7 +205,7 @@ def _fit_auto_law(
             return quad
     else:
         facts = {"law_test": "no covariance (minimax): the linear law is kept"}
-    model = _fit_one(dataset, linear, objective, solver, progress)
+    model = _fit_one(dataset, linear, objective, solver, progress, drift_rate)
     model.meta.update(stiffness_law="linear", **facts)
     return model
 

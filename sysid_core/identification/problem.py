@@ -35,6 +35,7 @@ import xarray as xr
 from sysid_core.conic.program import SYM_BASIS, sigma_max_2x2
 from sysid_core.data.schema import measured_mask, squared_potentials
 from sysid_core.data.validation import check_rank_condition, validate
+from sysid_core.errors import DataError
 from sysid_core.identification.scaling import ParameterLayout, Scaling
 from sysid_core.model.structures import ModelStructure
 
@@ -56,9 +57,15 @@ class FitProblem:
         Validated data (see :mod:`sysid_core.data.schema`).
     structure : ModelStructure
         The model structure (``act`` or ``sen``) with its polynomial order.
+    drift_rate : float
+        A common frequency drift to undo (relative, per second of the device's clock): each
+        point's frequency is mapped to the gyro at the latest time stamp. Needs ``time_s`` at
+        every point. Default 0: no drift.
     """
 
-    def __init__(self, dataset: xr.Dataset, structure: ModelStructure) -> None:
+    def __init__(
+        self, dataset: xr.Dataset, structure: ModelStructure, drift_rate: float = 0.0
+    ) -> None:
         validate(dataset)
         self.dataset = dataset
         self.structure = structure
@@ -81,6 +88,20 @@ class FitProblem:
         self.psi = np.asarray(dataset["response"].values)[k_idx, q_idx]
         self.w = squared_potentials(self.structure_potential, self.bias)
         self.omega = 2 * np.pi * self.frequency_hz
+        #: The relative frequency drift per second that the fit undoes, and the time (the
+        #: device's clock) the model then describes: the latest time stamp of the data.
+        self.drift_rate = float(drift_rate)
+        self.reference_time_s: float | None = None
+        if self.drift_rate:
+            times = np.asarray(dataset["time_s"].values, dtype=float)[k_idx, q_idx]
+            if not np.all(np.isfinite(times)):
+                raise DataError(
+                    "a drift can be fitted only to data with a time stamp at every point"
+                )
+            self.reference_time_s = float(times.max())
+            # the gyro at time t is the reference gyro with every frequency scaled by
+            # 1 + rate·(t − t_ref): it answers at ω as the reference gyro does at ω / (1 + …)
+            self.omega = self.omega / (1.0 + self.drift_rate * (times - self.reference_time_s))
         self.scaling = Scaling.from_data(self.omega, self.w, self.psi, self.experiment)
         self.G = self._operator()
 

@@ -63,13 +63,15 @@ class ModelConfig(_Strict):
 
     ``bias_terms`` (default 1) and ``stiffness`` (default ``"auto"``) are given to structures
     that take them (``act``, ``sen``); ``bias_terms = 0`` and ``stiffness = "linear"`` are the
-    paper's model.
+    paper's model. ``drift``: ``"none"`` (default) or ``"common"``, a common frequency drift
+    estimated from the measurements' time stamps (:mod:`sysid_core.identification.drift`).
     """
 
     structure: str = "act"
     order: int = DEFAULT_ORDER
     bias_terms: int = DEFAULT_BIAS_TERMS
     stiffness: str = DEFAULT_STIFFNESS
+    drift: Literal["none", "common"] = "none"
     options: dict[str, Any] = Field(default_factory=dict)
 
     def structure_options(self, accepted: Sequence[str]) -> dict[str, Any]:

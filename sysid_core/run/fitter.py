@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import xarray as xr
 
@@ -16,19 +16,33 @@ from sysid_core.run.evidence import WindowAssessment, assess_window
 __all__ = ["Fitter"]
 
 
-@dataclass(frozen=True)
+@dataclass
 class Fitter:
-    """Fits with the run's components (built once, from the run's registry)."""
+    """Fits with the run's components (built once, from the run's registry).
+
+    With ``drift``, the fits of several sweeps estimate a common frequency drift from the time
+    stamps (:mod:`sysid_core.identification.drift`); the last rate found (:attr:`rate`,
+    relative per second) is then undone in the fits of single sweeps (a verification), whose
+    model is the gyro at the sweep's last point.
+    """
 
     structure: ModelStructure
     objective: Objective
     solver: Solver
+    drift: bool = False
+    rate: float = field(default=0.0)
 
     def fit(
         self, ds: xr.Dataset, structure: ModelStructure | None = None
     ) -> tuple[FittedModel, list[str]]:
         """The model of ``ds`` and the notes of the fit (reasons to distrust it)."""
-        return fit_structure(ds, structure or self.structure, self.objective, self.solver)
+        found = fit_structure(
+            ds, structure or self.structure, self.objective, self.solver, drift=self.drift
+        )
+        rate = found[0].meta.get("drift_rate_per_h")
+        if self.drift and rate is not None:
+            self.rate = float(rate) / 3600.0
+        return found
 
     def model(self, ds: xr.Dataset, structure: ModelStructure | None = None) -> FittedModel:
         """The model of ``ds`` alone (its notes are not wanted where this is called)."""
@@ -39,5 +53,8 @@ class Fitter:
 
         A window without both modes is expected here: the evidence says so, not the fit's notes.
         """
-        model = self.model(sweep.isel(electrode=[]))
+        single = sweep.isel(electrode=[])
+        model, _ = fit_structure(
+            single, self.structure, self.objective, self.solver, drift=self.rate or False
+        )
         return model, assess_window(sweep, model, band=band)

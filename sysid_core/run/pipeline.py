@@ -135,13 +135,17 @@ class TuningRun:
             self.say,
             owns_device=device is None,
         )
-        self.fitter = Fitter(self.structure, self.objective, self.solver)
+        self.fitter = Fitter(
+            self.structure, self.objective, self.solver, drift=config.model.drift == "common"
+        )
         plan = SweepPlan.from_config(config.experiment, dev.band_hz)
         context = RunContext(config, self.space, plan, self.bench, self.fitter, self.say)
         context.design(self.space.start_bias)  # the first design: limits and rank condition
         self.protocol = make_protocol(context)
         folder.check(resume)
         self.notes: list[str] = []
+        #: The common drift the fits found (Hz per hour), or None when not modelled.
+        self.drift_hz_per_h: float | None = None
 
     @property
     def device(self) -> GuardedDevice:
@@ -214,6 +218,7 @@ class TuningRun:
                 confidence=step.result.confidence,
                 notes=self.notes,
                 clock_span_s=self.bench.clock_span_s,
+                drift_hz_per_h=self.drift_hz_per_h,
             )
             write_json(self.out / "summary.json", summary.as_dict())
             self.say(f"iteration {it}: {ver.describe()} ({fit_time:.2f} s to identify)")
@@ -237,6 +242,13 @@ class TuningRun:
         for note in notes:  # notes of this run, not user warnings
             self.notes.append(f"iteration {it}: {note}")
             self.say(f"iteration {it}: note: {note}")
+        rate = model.meta.get("drift_rate_per_h")
+        if rate is not None:
+            self.drift_hz_per_h = float(rate) * model.omega_center / (2 * np.pi)
+            self.say(
+                f"iteration {it}: drift {self.drift_hz_per_h * 1e3:+.4g} mHz/h common "
+                f"({float(rate) * 1e6:+.3g} ppm/h, from the time stamps)"
+            )
         law = model.meta.get("stiffness_law")
         if law is not None:
             stat, limit = model.meta.get("law_statistic"), model.meta.get("law_threshold")

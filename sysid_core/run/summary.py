@@ -112,6 +112,7 @@ class RunSummary:
     dwell_s: float | None = None
     dwell_source: str | None = None
     bench_time_source: str | None = None
+    drift_common_hz_per_h: float | None = None
 
     @classmethod
     def start(cls, device: str, bias: np.ndarray, space: BiasSpace, out: str) -> RunSummary:
@@ -163,6 +164,7 @@ class RunSummary:
             "dwell_s": self.dwell_s,
             "dwell_source": self.dwell_source,
             "bench_time_source": self.bench_time_source,
+            "drift_common_hz_per_h": self.drift_common_hz_per_h,
             "converged": self.converged,
             "verified": self.verified,
             "status": self.status,
@@ -202,6 +204,7 @@ def summarize(
     confidence: ConfidenceRegion | None,
     notes: list[str],
     clock_span_s: float | None = None,
+    drift_hz_per_h: float | None = None,
 ) -> RunSummary:
     """The run's summary after the last iteration of ``history`` (a new object).
 
@@ -239,4 +242,5 @@ def summarize(
         status=status_line(last.iteration, ver, goals, converged),
         history=list(history),
         notes=list(notes),
+        drift_common_hz_per_h=drift_hz_per_h,
     )

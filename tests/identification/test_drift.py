@@ -1,0 +1,83 @@
+"""A common frequency drift estimated from time stamps (``[model] drift = "common"``).
+
+Truth: the simulated bench's temperature ramp moves every frequency by ``tempco · ΔT``, so the
+rate is ``−30 ppm/K × ramp``; a fit that undoes it describes the gyro at the latest time stamp.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from sysid_cloverleaf import CloverleafGyro
+
+from sysid_core import fit, tune
+from sysid_core.data import concat_experiments, experiment_from_measurement
+from sysid_core.errors import ConfigError, FitWarning
+from sysid_core.run.config import parse_config
+from sysid_core.run.sweeps import design_experiments
+
+RAMP_K_PER_H = 1.5
+RATE_PER_H = -30e-6 * RAMP_K_PER_H  # the truth: −45 ppm/h
+F = np.linspace(4385.0, 4445.0, 121)
+MAIN_JOB = {
+    "model": {"drift": "common"},
+    "tuning": {
+        "criterion": "degenerate",
+        "electrodes": ["B1", "B2"],
+        "start_bias": [0.0] * 3,
+        "acceptance_hz": 0.002,
+        "max_iterations": 4,
+    },
+}
+
+
+def sweeps(gyro: CloverleafGyro):
+    design = design_experiments(np.zeros(3), [0, 1], 1.0, (-10.0, 10.0), two_sided=True)
+    parts = [
+        experiment_from_measurement(gyro.measure(b, F), b, gyro.electrodes, 15.58, "cloverleaf")
+        for b in design
+    ]
+    return concat_experiments(parts).sel(electrode=["B1", "B2"])
+
+
+def test_the_rate_of_a_temperature_ramp_is_estimated_and_undone() -> None:
+    warm = CloverleafGyro(seed=2, bench={"clock": True, "temperature_ramp_k_per_h": RAMP_K_PER_H})
+    ds = sweeps(warm)
+    model = fit(ds, drift=True)
+    assert model.meta["drift_rate_per_h"] == pytest.approx(RATE_PER_H, rel=0.2)
+    assert model.meta["drift_reference_time_s"] == pytest.approx(warm.time_s)
+    # the model is the gyro at the latest time stamp: its modes at the base bias are the truth now
+    now = warm.true_modal_frequencies_hz([0.0, 0.0, 0.0])
+    still = fit(ds)  # a time-invariant model averages over the sweeps
+    err_drift = np.abs(model.modal([0.0, 0.0]).frequencies_hz - now).max()
+    err_still = np.abs(still.modal([0.0, 0.0]).frequencies_hz - now).max()
+    assert err_drift < 0.2 * err_still
+
+
+def test_data_without_time_stamps_are_fitted_without_drift_and_say_so() -> None:
+    ds = sweeps(CloverleafGyro(seed=2))
+    with pytest.warns(FitWarning, match="drift is not modelled"):
+        model = fit(ds, drift=True)
+    assert "drift_rate_per_h" not in model.meta
+
+
+def test_a_run_on_a_ramp_is_tuned_and_reports_the_drift(tmp_path: Path) -> None:
+    device = CloverleafGyro(seed=1, bench={"clock": True, "temperature_ramp_k_per_h": RAMP_K_PER_H})
+    lines: list[str] = []
+    config = {"device": {"name": "cloverleaf", "seed": 1}, **MAIN_JOB}
+    result = tune(config, tmp_path / "run", device=device, progress=lines.append, plots=False)
+    truth = device.true_modal_frequencies_hz(result.bias)  # at the end of the run
+    assert result.converged and truth[1] - truth[0] < 0.002
+    expected = RATE_PER_H * truth.mean()  # Hz per hour
+    assert result.drift_common_hz_per_h == pytest.approx(expected, rel=0.2)
+    assert any("drift" in line and "ppm/h" in line for line in lines)
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["drift_common_hz_per_h"] == pytest.approx(result.drift_common_hz_per_h)
+
+
+def test_the_drift_key_is_checked() -> None:
+    with pytest.raises(ConfigError, match="drift"):
+        parse_config({"device": {"name": "cloverleaf"}, "model": {"drift": "sometimes"}})
