@@ -45,8 +45,15 @@ class Fitter:
         return found
 
     def model(self, ds: xr.Dataset, structure: ModelStructure | None = None) -> FittedModel:
-        """The model of ``ds`` alone (its notes are not wanted where this is called)."""
-        return self.fit(ds, structure)[0]
+        """The model of ``ds`` alone, for a guess (no notes; the last drift rate, not a search).
+
+        Guesses of where the modes are come often; searching the drift rate again for each
+        would repeat 6-10 fits that the run's own fits already made.
+        """
+        found, _ = fit_structure(
+            ds, structure or self.structure, self.objective, self.solver, drift=self.rate or False
+        )
+        return found
 
     def window(self, sweep: xr.Dataset, band: bool) -> tuple[FittedModel, WindowAssessment]:
         """A single sweep's model and the evidence that it shows both modes.
