@@ -32,7 +32,7 @@ import xarray as xr
 from sysid_core.conic.program import Solver
 from sysid_core.data.schema import read_netcdf
 from sysid_core.device.protocol import Device
-from sysid_core.errors import DataError, FitWarning
+from sysid_core.errors import ConfigError, DataError, FitWarning
 from sysid_core.identification.fitting import fit_structure
 from sysid_core.identification.objective import (
     DEFAULT_OBJECTIVE,
@@ -210,7 +210,7 @@ def fit(
     registry: Registry | None = None,
     bias_terms: int | None = None,
     stiffness: str | None = None,
-    drift: bool = False,
+    drift: bool | str = False,
 ) -> FittedModel:
     """Fit one bias-dependent model to every experiment of ``dataset`` at once.
 
@@ -243,10 +243,14 @@ def fit(
         default: the quadratic law if a Wald test of its terms rejects them being zero at
         99 %, else the linear law on the same data, which a one-sided design always gets;
         ``model.meta["stiffness_law"]`` says which).
-    drift : bool
-        Estimate a common frequency drift from the time stamps (``time_s``) and fit the model of
-        the gyro at the latest one (``model.meta["drift_rate_per_h"]``, relative per hour; see
-        :mod:`sysid_core.identification.drift`). Default false.
+    drift : bool or str
+        ``True`` or ``"common"``: estimate a common frequency drift from the time stamps
+        (``time_s``) and fit the model of the gyro at the latest one
+        (``model.meta["drift_rate_per_h"]``, relative per hour). ``"offsets"``: a common offset
+        for every earlier epoch of the data's ``epoch`` coordinate (per experiment); ``"trend"``:
+        a stiffness trend in time (``model.meta["drift_offsets"]``, ``["drift_trend"]``). See
+        :mod:`sysid_core.identification.drift` and docs/drift.md.
+        Default false.
 
     Returns
     -------
@@ -312,7 +316,22 @@ def fit(
     )
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be callable, not {type(progress).__name__}")
-    model, notes = fit_structure(dataset, structure, objective, solver, progress, drift=drift)
+    if drift not in (True, False, "none", "common", "offsets", "trend"):
+        raise ConfigError(
+            f"drift {drift!r} is not one of false, true, 'common', 'offsets', 'trend' (the "
+            "offsets and a trend together are not identified: both tell the epochs apart)"
+        )
+    terms = drift if isinstance(drift, str) else ""
+    model, notes = fit_structure(
+        dataset,
+        structure,
+        objective,
+        solver,
+        progress,
+        drift=drift is True or drift == "common",
+        offsets="offsets" in terms,
+        trend="trend" in terms,
+    )
     for message in notes:
         warnings.warn(message, FitWarning, stacklevel=2)
     return model

@@ -235,7 +235,11 @@ def requested_bias(ds: xr.Dataset) -> np.ndarray:
 
 
 def concat_experiments(datasets: Sequence[xr.Dataset]) -> xr.Dataset:
-    """Join data sets experiment-wise (grids may differ); metadata come from the first one."""
+    """Join data sets experiment-wise (grids may differ); metadata come from the first one.
+
+    An ``epoch`` coordinate (per experiment: when it was measured, see
+    :mod:`sysid_core.identification.problem`) is kept when every data set has one.
+    """
     if not datasets:
         raise DataError("no data sets to join")
     first = datasets[0]
@@ -249,7 +253,7 @@ def concat_experiments(datasets: Sequence[xr.Dataset]) -> xr.Dataset:
             grids.append(f[mask[k]])
             biases.append(ds["bias"].values[k])
             times.append(point_times(ds, k))
-    return make_dataset(
+    joined = make_dataset(
         responses,
         grids,
         np.array(biases),
@@ -261,6 +265,10 @@ def concat_experiments(datasets: Sequence[xr.Dataset]) -> xr.Dataset:
         response_units=str(first.attrs.get("response_units", "V/V")),
         times_s=times,
     )
+    if all("epoch" in ds.coords for ds in datasets):
+        epochs = np.concatenate([np.asarray(ds["epoch"].values, dtype=int) for ds in datasets])
+        joined = joined.assign_coords(epoch=("experiment", epochs))
+    return joined
 
 
 def squared_potentials(

@@ -22,7 +22,13 @@ from sysid_core.data.schema import measured_mask
 from sysid_core.data.validation import check_rank_condition
 from sysid_core.errors import RankConditionError, TooFewExperimentsError
 from sysid_core.identification.covariance import stiffness_factor
-from sysid_core.identification.drift import estimate_drift, has_time_stamps
+from sysid_core.identification.drift import (
+    NO_TIMING,
+    Timing,
+    estimate_drift,
+    has_time_stamps,
+    offset_facts,
+)
 from sysid_core.identification.objective import Objective, ObjectiveResult, Progress
 from sysid_core.identification.problem import FitProblem
 from sysid_core.model.fitted import DEFAULT_INPUTS, DEFAULT_OUTPUTS, FittedModel
@@ -60,6 +66,9 @@ def fit_structure(
     solver: Solver,
     progress: Progress | None = None,
     drift: bool | float = False,
+    offsets: bool = False,
+    trend: bool = False,
+    mass_shape: np.ndarray | None = None,
 ) -> tuple[FittedModel, list[str]]:
     """Fit ``structure`` to ``dataset`` with ``objective`` and ``solver``.
 
@@ -69,6 +78,11 @@ def fit_structure(
     ``True`` estimates a common frequency drift from the time stamps and fits the model of the
     gyro at the latest one (:mod:`sysid_core.identification.drift`; data without time stamps
     are fitted without, with a note); a number is a known rate (relative, per second).
+    ``offsets``: a common offset for every earlier epoch of the data's ``epoch`` coordinate, in
+    the shape ``mass_shape`` (default: identity)
+    (:class:`~sysid_core.identification.problem.FitProblem`); the model is the gyro of the
+    latest epoch. ``trend``: a stiffness trend in time, the model is the gyro at the latest time
+    stamp (data without time stamps at every point are fitted without).
     """
     notes: list[str] = []
     rate = 0.0
@@ -79,10 +93,11 @@ def fit_structure(
             notes.append("no time stamps at every point: the drift is not modelled")
     elif drift is not False:
         rate = float(drift) if has_time_stamps(dataset) else 0.0
+    timing = Timing(rate, offsets, trend and has_time_stamps(dataset), mass_shape)
     if getattr(structure, "stiffness", "linear") == "auto":
-        model = _fit_auto_law(dataset, structure, objective, solver, progress, rate)
+        model = _fit_auto_law(dataset, structure, objective, solver, progress, timing)
     else:
-        model = _fit_one(dataset, structure, objective, solver, progress, rate)
+        model = _fit_one(dataset, structure, objective, solver, progress, timing)
     notes = check_fit(dataset, model) + notes
     if model.meta.get("law_fallback"):
         notes.append(str(model.meta["law_test"]))
@@ -95,7 +110,7 @@ def _fit_one(
     objective: Objective,
     solver: Solver,
     progress: Progress | None,
-    drift_rate: float = 0.0,
+    timing: Timing = NO_TIMING,
 ) -> FittedModel:
     """Fit ``structure`` to ``dataset``, with the linear law if the quadratic one is not identified.
 
@@ -106,14 +121,14 @@ def _fit_one(
     t0 = time.perf_counter()
     facts: dict[str, object] = {}
     with threadpool_limits(limits=1, user_api="blas"):
-        problem = FitProblem(dataset, structure, drift_rate)
+        problem = FitProblem(dataset, structure, *timing.problem_args())
         if problem.layout.quadratic:
             law_condition = problem.normal_condition(law_basis=True)
             facts["law_condition"] = law_condition
             if not law_condition <= LAW_CONDITION_LIMIT:
                 linear = copy.copy(structure)
                 linear.stiffness = "linear"
-                problem = FitProblem(dataset, linear, drift_rate)
+                problem = FitProblem(dataset, linear, *timing.problem_args())
                 facts.update(
                     stiffness_law="linear",
                     law_fallback=True,
@@ -136,6 +151,7 @@ def _fit_one(
             drift_rate_per_h=problem.drift_rate * 3600.0,
             drift_reference_time_s=problem.reference_time_s,
         )
+    facts.update(offset_facts(problem, result.theta))
     return model_from_problem(problem, result, solver=solver.name, fit_time_s=elapsed, **facts)
 
 
@@ -168,7 +184,7 @@ def _fit_auto_law(
     objective: Objective,
     solver: Solver,
     progress: Progress | None,
-    drift_rate: float = 0.0,
+    timing: Timing = NO_TIMING,
 ) -> FittedModel:
     """``stiffness = "auto"``: the quadratic law where the data show it, else the linear one.
 
@@ -189,10 +205,10 @@ def _fit_auto_law(
             raise TooFewExperimentsError("no bias electrodes: nothing depends on w")
         check_rank_condition(bias, vg, quadratic=True)
     except (RankConditionError, TooFewExperimentsError):
-        model = _fit_one(dataset, linear, objective, solver, progress, drift_rate)
+        model = _fit_one(dataset, linear, objective, solver, progress, timing)
         model.meta.update(stiffness_law="linear", law_test="design does not identify L_p")
         return model
-    quad = _fit_one(dataset, quadratic, objective, solver, progress, drift_rate)
+    quad = _fit_one(dataset, quadratic, objective, solver, progress, timing)
     if quad.meta.get("law_fallback"):
         return quad
     found = law_statistic(quad)
@@ -205,7 +221,7 @@ def _fit_auto_law(
             return quad
     else:
         facts = {"law_test": "no covariance (minimax): the linear law is kept"}
-    model = _fit_one(dataset, linear, objective, solver, progress, drift_rate)
+    model = _fit_one(dataset, linear, objective, solver, progress, timing)
     model.meta.update(stiffness_law="linear", **facts)
     return model
 

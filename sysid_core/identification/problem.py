@@ -61,10 +61,28 @@ class FitProblem:
         A common frequency drift to undo (relative, per second of the device's clock): each
         point's frequency is mapped to the gyro at the latest time stamp. Needs ``time_s`` at
         every point. Default 0: no drift.
+    offsets : bool
+        Common drift offsets: with an ``epoch`` coordinate (per experiment, larger is later),
+        the stiffness of every earlier epoch's sweeps is the latest epoch's plus ``δ_e ω0²``
+        times ``mass_shape`` (one unknown each, linear in the equation error: both modes move
+        together, as with temperature); the model is the gyro of the latest epoch. Without the
+        coordinate, or with one epoch, nothing changes.
+    trend : bool
+        A stiffness trend in time: every point's stiffness differs from the gyro's at the latest
+        time stamp by ``(t − t_ref) D_t`` with an unknown symmetric ``D_t`` (3 unknowns: the
+        common and the split's drift, and charging's, to first order). Needs ``time_s``.
+    mass_shape : array, optional
+        The shape of a common offset: the mass matrix of an earlier fit (default: identity).
     """
 
     def __init__(
-        self, dataset: xr.Dataset, structure: ModelStructure, drift_rate: float = 0.0
+        self,
+        dataset: xr.Dataset,
+        structure: ModelStructure,
+        drift_rate: float = 0.0,
+        offsets: bool = False,
+        trend: bool = False,
+        mass_shape: np.ndarray | None = None,
     ) -> None:
         validate(dataset)
         self.dataset = dataset
@@ -72,14 +90,6 @@ class FitProblem:
         self.electrodes = [str(e) for e in dataset["electrode"].values]
         self.structure_potential = float(dataset.attrs["structure_potential"])
         self.bias = np.asarray(dataset["bias"].values, dtype=float)
-        self.layout = ParameterLayout(
-            len(self.electrodes),
-            structure.order,
-            structure.bias_terms,
-            getattr(structure, "stiffness", "linear") == "quadratic",
-        )
-        if self.layout.quadratic:
-            check_rank_condition(self.bias, self.structure_potential, self.electrodes, True)
         mask = measured_mask(dataset)
         f = np.asarray(dataset["frequency"].values, dtype=float)
         k_idx, q_idx = np.nonzero(mask)
@@ -88,20 +98,48 @@ class FitProblem:
         self.psi = np.asarray(dataset["response"].values)[k_idx, q_idx]
         self.w = squared_potentials(self.structure_potential, self.bias)
         self.omega = 2 * np.pi * self.frequency_hz
-        #: The relative frequency drift per second that the fit undoes, and the time (the
-        #: device's clock) the model then describes: the latest time stamp of the data.
-        self.drift_rate = float(drift_rate)
+        #: Every point's time stamp (the device's clock; None unless every point has one) and
+        #: the time the model describes: the latest one.
+        self.times_s: np.ndarray | None = None
         self.reference_time_s: float | None = None
-        if self.drift_rate:
+        if "time_s" in dataset:
             times = np.asarray(dataset["time_s"].values, dtype=float)[k_idx, q_idx]
-            if not np.all(np.isfinite(times)):
-                raise DataError(
-                    "a drift can be fitted only to data with a time stamp at every point"
-                )
-            self.reference_time_s = float(times.max())
+            if np.all(np.isfinite(times)) and times.size:
+                self.times_s = times
+                self.reference_time_s = float(times.max())
+        #: The relative frequency drift per second that the fit undoes.
+        self.drift_rate = float(drift_rate)
+        if (self.drift_rate or trend) and self.times_s is None:
+            raise DataError("a drift can be fitted only to data with a time stamp at every point")
+        if self.drift_rate:
+            assert self.times_s is not None and self.reference_time_s is not None
             # the gyro at time t is the reference gyro with every frequency scaled by
             # 1 + rate·(t − t_ref): it answers at ω as the reference gyro does at ω / (1 + …)
-            self.omega = self.omega / (1.0 + self.drift_rate * (times - self.reference_time_s))
+            self.omega = self.omega / (
+                1.0 + self.drift_rate * (self.times_s - self.reference_time_s)
+            )
+        #: The drift terms: a common offset per earlier epoch (the stiffness of its sweeps is
+        #: the latest epoch's plus ``δ_e`` times :attr:`mass_shape`) and a stiffness trend in
+        #: time (:attr:`trend_scale_s` seconds per unit of its regressor).
+        self.mass_shape = np.eye(2) if mass_shape is None else np.asarray(mass_shape, float)
+        self.epochs: np.ndarray | None = None
+        self.offset_epochs: list[int] = []
+        if offsets and "epoch" in dataset.coords:
+            self.epochs = np.asarray(dataset["epoch"].values, dtype=int)
+            self.offset_epochs = [int(e) for e in np.unique(self.epochs)[:-1]]
+        self.trend_scale_s = 0.0
+        if trend and self.times_s is not None and np.ptp(self.times_s) > 0:
+            self.trend_scale_s = float(np.ptp(self.times_s))
+        self.layout = ParameterLayout(
+            len(self.electrodes),
+            structure.order,
+            structure.bias_terms,
+            getattr(structure, "stiffness", "linear") == "quadratic",
+            len(self.offset_epochs),
+            bool(self.trend_scale_s),
+        )
+        if self.layout.quadratic:
+            check_rank_condition(self.bias, self.structure_potential, self.electrodes, True)
         self.scaling = Scaling.from_data(self.omega, self.w, self.psi, self.experiment)
         self.G = self._operator()
 
@@ -150,9 +188,21 @@ class FitProblem:
         if lay.quadratic:
             qt = self.scaled_q()[self.experiment]
             coef += [(lay.L(p), qt[:, p].astype(complex)) for p in range(lay.n_electrodes)]
+        if lay.trend:
+            assert self.times_s is not None and self.reference_time_s is not None
+            tau = (self.times_s - self.reference_time_s) / self.trend_scale_s
+            coef.append((lay.T, tau.astype(complex)))
         for sl, c in coef:
             for a in range(3):
                 g[:, :, :, sl.start + a] = -c[:, None, None] * prod[:, a]
+        if self.epochs is not None and lay.n_offsets:
+            # δ_e S with the fixed shape S, scaled as D~ (the unknown is δ_e / ε): one column
+            # each, -[epoch e] product(psi~, S)
+            shaped = self.structure.product(psi_t, self.mass_shape[None].astype(complex))
+            point_epoch = self.epochs[self.experiment]
+            for j, e in enumerate(self.offset_epochs):
+                here = (point_epoch == e)[:, None, None]
+                g[:, :, :, lay.offset(j).start] = -np.where(here, shaped, 0.0)
         blocks = [(lay.poly(deg), nu**deg) for deg in range(lay.order + 1)]
         blocks += [
             (lay.poly_w(deg, p), nu**deg * wt[:, p])

@@ -23,13 +23,17 @@ class ParameterLayout:
     Order: ``M`` (3: m11, m12, m22), ``C~`` (3), ``D~0`` (3), ``K~_p`` (3 per electrode), then per
     polynomial degree ``l``: real parts of ``P~_l`` (4, row-major) and imaginary parts (4); then,
     for ``l < bias_terms`` and each electrode ``p``, the 8 reals of ``P~_{l,p}``; then, with a
-    quadratic stiffness law, ``L~_p`` (3 per electrode).
+    quadratic stiffness law, ``L~_p`` (3 per electrode); last, the drift terms: a common offset
+    ``δ_e`` per earlier epoch (1 each: the stiffness of epoch ``e`` is the latest one's plus
+    ``δ_e`` times the mass's shape) and, with a trend, ``D~_t`` (3).
     """
 
     n_electrodes: int
     order: int
     bias_terms: int = 0
     quadratic: bool = False
+    n_offsets: int = 0
+    trend: bool = False
 
     @property
     def n_z(self) -> int:
@@ -39,6 +43,10 @@ class ParameterLayout:
     @property
     def n(self) -> int:
         """Total number of real unknowns."""
+        return self._n_before_offsets + self.n_offsets + (3 if self.trend else 0)
+
+    @property
+    def _n_before_offsets(self) -> int:
         return self._n_before_l + (3 * self.n_electrodes if self.quadratic else 0)
 
     @property
@@ -58,6 +66,21 @@ class ParameterLayout:
         if not self.quadratic:
             raise IndexError("a linear stiffness law has no L_p")
         return slice(self._n_before_l + 3 * p, self._n_before_l + 3 * p + 3)
+
+    def offset(self, e: int) -> slice:
+        """Slice (of 1) of the ``e``-th earlier epoch's common offset ``δ_e``."""
+        if not 0 <= e < self.n_offsets:
+            raise IndexError(f"no drift offset {e} (there are {self.n_offsets})")
+        start = self._n_before_offsets + e
+        return slice(start, start + 1)
+
+    @property
+    def T(self) -> slice:
+        """Slice of the stiffness trend ``D~_t`` (3)."""
+        if not self.trend:
+            raise IndexError("the fit has no trend")
+        start = self._n_before_offsets + self.n_offsets
+        return slice(start, start + 3)
 
     def poly(self, degree: int) -> slice:
         """Slice of the 8 reals of ``P~_degree`` (4 real parts then 4 imaginary parts)."""
@@ -88,6 +111,8 @@ class ParameterLayout:
             names += [
                 f"L{p + 1}_{ij}" for p in range(self.n_electrodes) for ij in ("11", "12", "22")
             ]
+        names += [f"delta{e + 1}" for e in range(self.n_offsets)]
+        names += [f"T{ij}" for ij in ("11", "12", "22")] if self.trend else []
         return names
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
 import xarray as xr
 
 from sysid_core.conic.program import Solver
@@ -31,14 +32,29 @@ class Fitter:
     solver: Solver
     drift: bool = False
     rate: float = field(default=0.0)
+    offsets: bool = False
+    trend: bool = False
+    #: The mass matrix of the last fit: the shape of the common offsets.
+    mass_shape: np.ndarray | None = None
+
+    def _epochs(self, ds: xr.Dataset) -> int:
+        return len(np.unique(ds["epoch"].values)) if "epoch" in ds.coords else 1
 
     def fit(
         self, ds: xr.Dataset, structure: ModelStructure | None = None
     ) -> tuple[FittedModel, list[str]]:
         """The model of ``ds`` and the notes of the fit (reasons to distrust it)."""
         found = fit_structure(
-            ds, structure or self.structure, self.objective, self.solver, drift=self.drift
+            ds,
+            structure or self.structure,
+            self.objective,
+            self.solver,
+            drift=self.drift,
+            offsets=self.offsets,
+            trend=self.trend and self._epochs(ds) > 1,
+            mass_shape=self.mass_shape,
         )
+        self.mass_shape = found[0].M
         rate = found[0].meta.get("drift_rate_per_h")
         if self.drift and rate is not None:
             self.rate = float(rate) / 3600.0
@@ -51,7 +67,14 @@ class Fitter:
         would repeat 6-10 fits that the run's own fits already made.
         """
         found, _ = fit_structure(
-            ds, structure or self.structure, self.objective, self.solver, drift=self.rate or False
+            ds,
+            structure or self.structure,
+            self.objective,
+            self.solver,
+            drift=self.rate or False,
+            offsets=self.offsets,
+            trend=self.trend and self._epochs(ds) > 1,
+            mass_shape=self.mass_shape,
         )
         return found
 

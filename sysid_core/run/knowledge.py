@@ -69,14 +69,18 @@ class Knowledge:
         self.tuned = list(tuned)
         self.structure_potential = float(structure_potential)
         self.items: list[Measured] = []
+        #: The epoch the sweeps added now belong to (the run's iteration): a fit with drift
+        #: offsets gives each earlier epoch a stiffness offset of its own.
+        self.epoch = 1
 
     def add(self, sweep: xr.Dataset, evidence: WindowAssessment | None) -> None:
-        """Keep ``sweep``; its modes only if ``evidence`` shows both."""
+        """Keep ``sweep``, in the current :attr:`epoch`; its modes if ``evidence`` shows both."""
         modes = None
         if evidence is not None and evidence.ok:
             guess = ModeGuess.of(evidence.frequencies_hz, evidence.bandwidth_hz)
             modes = guess if guess.usable() else None
-        self.items.append(Measured(sweep, modes))
+        epochs = np.full(sweep.sizes["experiment"], self.epoch, dtype=int)
+        self.items.append(Measured(sweep.assign_coords(epoch=("experiment", epochs)), modes))
 
     def __len__(self) -> int:
         """The number of sweeps kept."""

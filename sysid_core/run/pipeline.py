@@ -48,6 +48,7 @@ from sysid_core.run.benchtime import dwell
 from sysid_core.run.components import build_components
 from sysid_core.run.config import PipelineConfig
 from sysid_core.run.fitter import Fitter
+from sysid_core.run.judgement import honest_goals
 from sysid_core.run.plots import PLOT_FORMATS, plot_bias_path, plot_iteration
 from sysid_core.run.protocols import RunContext, make_protocol
 from sysid_core.run.summary import IterationRecord, RunSummary, summarize
@@ -136,7 +137,12 @@ class TuningRun:
             owns_device=device is None,
         )
         self.fitter = Fitter(
-            self.structure, self.objective, self.solver, drift=config.model.drift == "common"
+            self.structure,
+            self.objective,
+            self.solver,
+            drift=config.model.drift == "common",
+            offsets="offsets" in config.model.drift,
+            trend="trend" in config.model.drift,
         )
         plan = SweepPlan.from_config(config.experiment, dev.band_hz)
         context = RunContext(config, self.space, plan, self.bench, self.fitter, self.say)
@@ -196,6 +202,7 @@ class TuningRun:
             ver.model.save(folder / "verify-model.nc")
             goals: list[Goal] = (
                 self.criterion.goals(ver.frequencies_hz, cfg.acceptance_hz)
+                + honest_goals(ver, model, cfg.acceptance_hz)
                 if ver.verified and ver.frequencies_hz is not None
                 else []
             )

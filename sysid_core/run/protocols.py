@@ -204,6 +204,7 @@ class LeanProtocol(Protocol):
         condition; iteration 1 measures the design where the modes should be.
         """
         ctx = self.ctx
+        self.known.epoch = it
         if it > 1 and self.moved:
             self.local = True
             ctx.say(

@@ -34,7 +34,13 @@ from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import normalised_stiffness, trace_deviation
 from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion, TuningResult
 
-__all__ = ["DEFAULT_LEVEL", "DEFAULT_SAMPLES", "confidence_region", "stiffness_vector"]
+__all__ = [
+    "DEFAULT_LEVEL",
+    "DEFAULT_SAMPLES",
+    "confidence_region",
+    "split_interval",
+    "stiffness_vector",
+]
 
 #: Confidence level of the regions a run reports.
 DEFAULT_LEVEL = 0.95
@@ -222,3 +228,46 @@ def _degenerate_steps(
         own_jac = np.vstack([own_jac, own_tp[None, :]])
         own_rhs = np.append(own_rhs, (_TWO_PI * float(target)) ** 2 - t0)
     return step - np.linalg.pinv(own_jac) @ own_rhs
+
+
+def split_interval(model: FittedModel, level: float = DEFAULT_LEVEL) -> tuple[float, float] | None:
+    """The ``level`` interval of the split (Hz) of a model of one bias (a verification's).
+
+    The split range over the ``level`` ellipse of the normalised stiffness's deviation ``d``,
+    whose covariance is the fit's, mapped to first order (``J Σ Jᵀ``, ``J`` by central
+    differences). Sampling the stiffness (as :func:`confidence_region` does) would not do here:
+    near degenerate modes the fit barely tells ``M`` and ``K`` from a common symmetric factor of
+    both (``T M``, ``T K`` with ``R~ → T R~``), a direction of huge variance along which the
+    split does not change to first order but the draws end far from the model. ``None``
+    without a covariance (``minimax``) or for a model with bias electrodes.
+    """
+    if model.stiffness_factor is None or len(model.electrodes):
+        return None
+    phi = stiffness_vector(model)[:6]
+
+    def deviation(x: np.ndarray) -> np.ndarray:
+        t, d = trace_deviation(normalised_stiffness(sym(x[None, 0:3]), sym(x[None, 3:6])))
+        return np.array([t[0], *d[0]])
+
+    jac = np.zeros((3, 6))
+    for i in range(6):
+        h = 1e-7 * max(abs(float(phi[i])), float(np.abs(phi).max()) * 1e-6, 1e-300)
+        up, down = phi.copy(), phi.copy()
+        up[i] += h
+        down[i] -= h
+        jac[:, i] = (deviation(up) - deviation(down)) / (2 * h)
+    factor = jac @ model.stiffness_factor[:6]
+    cov_d = factor[1:] @ factor[1:].T
+    own = deviation(phi)
+    t0, d0 = float(own[0]), own[1:]
+    q = -2.0 * math.log(1.0 - level)  # chi-square quantile, 2 degrees of freedom
+    lam_d, vec_d = np.linalg.eigh(cov_d)
+    lam_d = np.clip(lam_d, 1e-300, None)
+    angle = np.linspace(0.0, 2 * np.pi, 721)
+    unit = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    radius = np.hypot(*(d0 + math.sqrt(q) * (unit * np.sqrt(lam_d)) @ vec_d.T).T)
+    inside = float(np.sum((vec_d.T @ d0) ** 2 / lam_d)) <= q
+    return (
+        0.0 if inside else float(_split_hz(t0, radius.min())),
+        float(_split_hz(t0, radius.max())),
+    )

@@ -81,3 +81,77 @@ def test_a_run_on_a_ramp_is_tuned_and_reports_the_drift(tmp_path: Path) -> None:
 def test_the_drift_key_is_checked() -> None:
     with pytest.raises(ConfigError, match="drift"):
         parse_config({"device": {"name": "cloverleaf"}, "model": {"drift": "sometimes"}})
+
+
+# --------------------------------------------------------------------------- offsets and trend
+def epochs_of(ds, epochs):
+    return ds.assign_coords(epoch=("experiment", np.asarray(epochs, dtype=int)))
+
+
+def two_epochs(gyro: CloverleafGyro):
+    """The design (epoch 1), then the base and one step again (epoch 2), measured in turn."""
+    first = sweeps(gyro)
+    again = [np.zeros(3), np.array([1.0, 0.0, 0.0])]
+    parts = [
+        experiment_from_measurement(gyro.measure(b, F), b, gyro.electrodes, 15.58, "cloverleaf")
+        for b in again
+    ]
+    second = concat_experiments(parts).sel(electrode=["B1", "B2"])
+    ds = concat_experiments(
+        [epochs_of(first, [1] * first.sizes["experiment"]), epochs_of(second, [2, 2])]
+    )
+    return ds
+
+
+def test_epoch_offsets_and_a_trend_see_a_temperature_ramp() -> None:
+    """The common rate by the trend: the ramp's, within 20 %; by the offsets' slope, 50 %.
+
+    The offsets are constant per epoch while the ramp goes on during the design's five sweeps
+    (an hour): the time-invariant bias terms of the first epoch take part of it (measured: −0.275
+    against −0.199 Hz/h); the trend follows every point's time stamp (−0.194).
+    """
+    from sysid_core.identification.drift import offset_drift
+
+    warm = CloverleafGyro(seed=2, bench={"clock": True, "temperature_ramp_k_per_h": RAMP_K_PER_H})
+    ds = two_epochs(warm)
+    assert list(np.unique(ds["epoch"].values)) == [1, 2]  # the epoch survives the join
+    now = warm.true_modal_frequencies_hz([0.0, 0.0, 0.0])
+    expected = RATE_PER_H * now.mean()  # Hz per hour
+    still = fit(ds)
+    # the offsets' model is the latest epoch's average gyro (two sweeps, 20 minutes), the
+    # trend's the gyro at the last time stamp: 0.098 and 0.012 Hz off, 0.286 without either
+    for drift, rel, better in (("offsets", 0.5, 0.5), ("trend", 0.2, 0.1)):
+        model = fit(ds, drift=drift)
+        seen = offset_drift(model)
+        assert seen is not None
+        assert seen.common_hz_per_h == pytest.approx(expected, rel=rel), drift
+        # the model is the gyro of the latest epoch (offsets) or time stamp (trend)
+        err = np.abs(model.modal([0.0, 0.0]).frequencies_hz - now).max()
+        err_still = np.abs(still.modal([0.0, 0.0]).frequencies_hz - now).max()
+        assert err < better * err_still, drift
+    assert len(fit(ds, drift="offsets").meta["drift_offsets"]) == 1
+
+
+def test_a_frozen_gyro_shows_no_drift_and_the_same_model() -> None:
+    """Without drift, offsets and trend are ~0 and the model is the time-invariant one."""
+    from sysid_core.identification.drift import offset_drift
+
+    clock = CloverleafGyro(seed=2, bench={"clock": True})
+    ds = two_epochs(clock)
+    still = fit(ds)
+    f_still = still.modal([0.0, 0.0]).frequencies_hz
+    for drift in ("offsets", "trend"):
+        model = fit(ds, drift=drift)
+        seen = offset_drift(model)
+        assert seen is not None
+        # the noise's doing only: under 2 % of the ramp's rate of the other tests
+        assert abs(seen.common_hz_per_h) < 0.02 * abs(RATE_PER_H * 4430.0), drift
+        assert np.abs(model.modal([0.0, 0.0]).frequencies_hz - f_still).max() < 2e-3, drift
+
+
+def test_a_bad_drift_option_is_refused() -> None:
+    ds = sweeps(CloverleafGyro(seed=2, bench={"clock": True}))
+    with pytest.raises(ConfigError, match="drift 'offset'"):
+        fit(ds, drift="offset")
+    with pytest.raises(ConfigError, match="not identified"):
+        fit(ds, drift="offsets+trend")
