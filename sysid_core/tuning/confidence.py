@@ -70,6 +70,21 @@ def _split_hz(t: float | np.ndarray, r: float | np.ndarray) -> np.ndarray:
     return np.asarray((np.sqrt(t + r) - np.sqrt(np.clip(t - r, 0.0, None))) / _TWO_PI)
 
 
+def _split_range(t0: float, d0: np.ndarray, cov_d: np.ndarray, level: float) -> tuple[float, float]:
+    """The split range (Hz) over the ``level`` ellipse of ``d`` (centre ``d0``, ``cov_d``)."""
+    q = -2.0 * math.log(1.0 - level)  # chi-square quantile, 2 degrees of freedom
+    lam_d, vec_d = np.linalg.eigh(cov_d)
+    lam_d = np.clip(lam_d, 1e-300, None)
+    angle = np.linspace(0.0, 2 * np.pi, 721)
+    unit = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    radius = np.hypot(*(d0 + math.sqrt(q) * (unit * np.sqrt(lam_d)) @ vec_d.T).T)
+    inside = float(np.sum((vec_d.T @ d0) ** 2 / lam_d)) <= q
+    return (
+        0.0 if inside else float(_split_hz(t0, radius.min())),
+        float(_split_hz(t0, radius.max())),
+    )
+
+
 def _split_and_frequency(
     t: np.ndarray, d: np.ndarray, t0: float, d0: np.ndarray, level: float
 ) -> tuple[tuple[float, float], tuple[float, float]]:
@@ -78,19 +93,7 @@ def _split_and_frequency(
     The split range is over the ``level`` ellipse of the drawn ``d`` (centred on the model's
     ``d0``); the interval is the central one of the drawn mean modal frequency.
     """
-    cov_d = np.cov(d, rowvar=False)
-    q = -2.0 * math.log(1.0 - level)  # chi-square quantile, 2 degrees of freedom
-    lam_d, vec_d = np.linalg.eigh(cov_d)
-    lam_d = np.clip(lam_d, 1e-300, None)
-    angle = np.linspace(0.0, 2 * np.pi, 721)
-    unit = np.stack([np.cos(angle), np.sin(angle)], axis=1)
-    ring = d0 + math.sqrt(q) * (unit * np.sqrt(lam_d)) @ vec_d.T
-    radius = np.hypot(ring[:, 0], ring[:, 1])
-    inside = float(np.sum((vec_d.T @ d0) ** 2 / lam_d)) <= q
-    split_ci = (
-        0.0 if inside else float(_split_hz(t0, radius.min())),
-        float(_split_hz(t0, radius.max())),
-    )
+    split_ci = _split_range(t0, d0, np.cov(d, rowvar=False), level)
     r = np.hypot(d[:, 0], d[:, 1])
     f_mean = 0.5 * (np.sqrt(np.clip(t + r, 0, None)) + np.sqrt(np.clip(t - r, 0, None))) / _TWO_PI
     alpha = 1.0 - level
@@ -259,15 +262,4 @@ def split_interval(model: FittedModel, level: float = DEFAULT_LEVEL) -> tuple[fl
     factor = jac @ model.stiffness_factor[:6]
     cov_d = factor[1:] @ factor[1:].T
     own = deviation(phi)
-    t0, d0 = float(own[0]), own[1:]
-    q = -2.0 * math.log(1.0 - level)  # chi-square quantile, 2 degrees of freedom
-    lam_d, vec_d = np.linalg.eigh(cov_d)
-    lam_d = np.clip(lam_d, 1e-300, None)
-    angle = np.linspace(0.0, 2 * np.pi, 721)
-    unit = np.stack([np.cos(angle), np.sin(angle)], axis=1)
-    radius = np.hypot(*(d0 + math.sqrt(q) * (unit * np.sqrt(lam_d)) @ vec_d.T).T)
-    inside = float(np.sum((vec_d.T @ d0) ** 2 / lam_d)) <= q
-    return (
-        0.0 if inside else float(_split_hz(t0, radius.min())),
-        float(_split_hz(t0, radius.max())),
-    )
+    return _split_range(float(own[0]), own[1:], cov_d, level)
