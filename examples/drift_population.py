@@ -45,7 +45,7 @@ def seeds(text: str) -> list[int]:
     return [int(s) for s in text.split(",")]
 
 
-def one(seed: int, bench: str, drift: str, out: Path) -> dict:
+def one(seed: int, bench: str, drift: str, out: Path, iterations: int = 4) -> dict:
     """Tune gyro ``seed``; its record (true split at the end, claim, points, bench time)."""
     sign = 1.0 if seed % 2 else -1.0
     table = {"clock": True, "seed": seed, **BENCHES[bench]}
@@ -62,7 +62,7 @@ def one(seed: int, bench: str, drift: str, out: Path) -> dict:
             "electrodes": ["B1", "B2"],
             "start_bias": [0.0] * len(device.electrodes),
             "acceptance_hz": ACCEPTANCE,
-            "max_iterations": 4,
+            "max_iterations": iterations,
         },
     }
     folder = out / f"gyro{seed}"
@@ -103,15 +103,18 @@ def main() -> None:
     """Parse the arguments, tune every gyro, print the row."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--bench", choices=sorted(BENCHES), default="lab")
-    parser.add_argument("--drift", default="none", choices=["none", "common", "offsets", "trend"])
+    parser.add_argument(
+        "--drift", default="none", choices=["none", "common", "offsets", "trend", "track"]
+    )
     parser.add_argument("--seeds", default="101-124")
+    parser.add_argument("--iterations", type=int, default=4, help="max_iterations (4)")
     parser.add_argument("--out", type=Path, default=Path("runs/drift-population"))
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     records = []
     with (args.out / "runs.jsonl").open("w") as log:
         for seed in seeds(args.seeds):
-            records.append(one(seed, args.bench, args.drift, args.out))
+            records.append(one(seed, args.bench, args.drift, args.out, args.iterations))
             log.write(json.dumps(records[-1]) + "\n")
             log.flush()
     print(

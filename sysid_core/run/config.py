@@ -71,7 +71,7 @@ class ModelConfig(_Strict):
     order: int = DEFAULT_ORDER
     bias_terms: int = DEFAULT_BIAS_TERMS
     stiffness: str = DEFAULT_STIFFNESS
-    drift: Literal["none", "common", "offsets", "trend"] = "none"
+    drift: Literal["none", "common", "offsets", "trend", "track"] = "none"
     options: dict[str, Any] = Field(default_factory=dict)
 
     def structure_options(self, accepted: Sequence[str]) -> dict[str, Any]:

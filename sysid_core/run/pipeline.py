@@ -39,6 +39,7 @@ from sysid_core.data.runfolder import RunFolder
 from sysid_core.device.measuring import GuardedDevice, check_bias
 from sysid_core.device.protocol import Device, ReportsProgress
 from sysid_core.errors import ConfigError
+from sysid_core.identification.drift import offset_drift
 from sysid_core.identification.objective import Progress
 from sysid_core.model.fitted import FittedModel
 from sysid_core.plugin.registry import Registry, get_registry
@@ -53,6 +54,7 @@ from sysid_core.run.plots import PLOT_FORMATS, plot_bias_path, plot_iteration
 from sysid_core.run.protocols import RunContext, make_protocol
 from sysid_core.run.summary import IterationRecord, RunSummary, summarize
 from sysid_core.run.sweeps import SweepPlan
+from sysid_core.run.tracking import NEAR_ACCEPTANCES, Tracker
 from sysid_core.run.verification import Verification
 from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion, Goal
 
@@ -144,6 +146,15 @@ class TuningRun:
             offsets="offsets" in config.model.drift,
             trend="trend" in config.model.drift,
         )
+        #: With ``[model] drift = "track"``: the verified windows, and the model moved ahead.
+        self.tracker = (
+            Tracker(
+                settle_s=float(getattr(dev, "settle_s", None) or 0.0),
+                near_hz=NEAR_ACCEPTANCES * config.tuning.acceptance_hz,
+            )
+            if config.model.drift == "track"
+            else None
+        )
         plan = SweepPlan.from_config(config.experiment, dev.band_hz)
         context = RunContext(config, self.space, plan, self.bench, self.fitter, self.say)
         context.design(self.space.start_bias)  # the first design: limits and rank condition
@@ -152,6 +163,8 @@ class TuningRun:
         self.notes: list[str] = []
         #: The common drift the fits found (Hz per hour), or None when not modelled.
         self.drift_hz_per_h: float | None = None
+        #: The split's drift rate the tracking found (Hz per hour), or None.
+        self.drift_split_hz_per_h: float | None = None
 
     @property
     def device(self) -> GuardedDevice:
@@ -196,13 +209,16 @@ class TuningRun:
             t0 = time.perf_counter()
             ds, model = self._identify(it, bias, folder, center, split)
             fit_time = time.perf_counter() - t0
-            step = self._answer(it, model, bias, folder)
+            now = model if self.tracker is None else self._track(it, model, ds)
+            step = self._answer(it, now, bias, folder)
             regions.append(step.result.confidence)
-            ver = self.protocol.verify(step.bias, step.result, model, folder)
+            ver = self.protocol.verify(step.bias, step.result, now, folder)
             ver.model.save(folder / "verify-model.nc")
+            if self.tracker is not None:
+                self.tracker.learned(ver)
             goals: list[Goal] = (
                 self.criterion.goals(ver.frequencies_hz, cfg.acceptance_hz)
-                + honest_goals(ver, model, cfg.acceptance_hz)
+                + honest_goals(ver, now, cfg.acceptance_hz)
                 if ver.verified and ver.frequencies_hz is not None
                 else []
             )
@@ -226,6 +242,7 @@ class TuningRun:
                 notes=self.notes,
                 clock_span_s=self.bench.clock_span_s,
                 drift_hz_per_h=self.drift_hz_per_h,
+                drift_split_hz_per_h=self.drift_split_hz_per_h,
             )
             write_json(self.out / "summary.json", summary.as_dict())
             self.say(f"iteration {it}: {ver.describe()} ({fit_time:.2f} s to identify)")
@@ -268,6 +285,18 @@ class TuningRun:
             self.say(f"iteration {it}: stiffness law {law}{test}")
         model.save(folder / "model.nc")
         return ds, model
+
+    def _track(self, it: int, model: FittedModel, ds: xr.Dataset) -> FittedModel:
+        """The model moved to the next verification's time (``drift = "track"``)."""
+        assert self.tracker is not None
+        now = self.tracker.now(model, ds, self.say, it)
+        seen = offset_drift(now)
+        if seen is not None:
+            self.drift_hz_per_h = seen.common_hz_per_h
+            self.drift_split_hz_per_h = seen.split_hz_per_h
+        if now is not model:
+            now.save(self.out / f"iter{it:02d}" / "model-now.nc")
+        return now
 
     def _answer(self, it: int, model: FittedModel, bias: np.ndarray, folder: Path) -> Answer:
         """Step 3 at the current ``bias`` (:func:`sysid_core.run.answer.answer`).

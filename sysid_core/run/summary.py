@@ -113,6 +113,7 @@ class RunSummary:
     dwell_source: str | None = None
     bench_time_source: str | None = None
     drift_common_hz_per_h: float | None = None
+    drift_split_hz_per_h: float | None = None
 
     @classmethod
     def start(cls, device: str, bias: np.ndarray, space: BiasSpace, out: str) -> RunSummary:
@@ -165,6 +166,7 @@ class RunSummary:
             "dwell_source": self.dwell_source,
             "bench_time_source": self.bench_time_source,
             "drift_common_hz_per_h": self.drift_common_hz_per_h,
+            "drift_split_hz_per_h": self.drift_split_hz_per_h,
             "converged": self.converged,
             "verified": self.verified,
             "status": self.status,
@@ -205,6 +207,7 @@ def summarize(
     notes: list[str],
     clock_span_s: float | None = None,
     drift_hz_per_h: float | None = None,
+    drift_split_hz_per_h: float | None = None,
 ) -> RunSummary:
     """The run's summary after the last iteration of ``history`` (a new object).
 
@@ -243,4 +246,5 @@ def summarize(
         history=list(history),
         notes=list(notes),
         drift_common_hz_per_h=drift_hz_per_h,
+        drift_split_hz_per_h=drift_split_hz_per_h,
     )

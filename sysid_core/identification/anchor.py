@@ -1,0 +1,161 @@
+"""The gyro now, from its latest verifications: a model's stiffness anchored in time.
+
+A run's model is fitted to every sweep it has measured, over tens of minutes; on a bench that
+drifts, it describes an average of the gyro over that time, while the tuning needs the gyro as
+it will be at the next measurement. Dielectric charging moves the split by tens of mHz per hour
+(measured on random gyros at 15 mV/h: 18-80 mHz/h), so a run that converges on the average keeps
+missing by the lag (a 5 mHz split that four more iterations did not reduce).
+
+:func:`anchor` keeps the model's bias law (``M``, ``C``, ``K_p``, the polynomial) and fits, to
+the last verification sweeps alone, a stiffness offset ``A`` and (with two verifications or more
+at different times) its rate ``D``:
+
+    K(v, t) = K(v) + A + (t − t_ref) D,
+
+with a damping offset and a complex gain per sweep (the analyzer's wander) as nuisances. The
+equation error of every point is linear in all of them, so this is one small least-squares
+problem. :meth:`Anchor.model_at` gives the model at any time: the tuning solves it for the time of
+the next verification. The rates (common and split, Hz/h) are
+:func:`sysid_core.identification.drift.offset_drift` of that model (``meta["drift_trend"]``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import xarray as xr
+
+from sysid_core.data.schema import measured_mask, point_times
+from sysid_core.errors import DataError
+from sysid_core.model.fitted import FittedModel
+
+__all__ = ["Anchor", "anchor"]
+
+_BASIS = (
+    np.array([[1.0, 0.0], [0.0, 0.0]]),
+    np.array([[0.0, 1.0], [1.0, 0.0]]),
+    np.array([[0.0, 0.0], [0.0, 1.0]]),
+)
+
+
+@dataclass(frozen=True)
+class Anchor:
+    """A stiffness offset and rate that bring a model to the gyro of its latest verifications.
+
+    Attributes
+    ----------
+    offset : ndarray (2, 2)
+        Symmetric: the stiffness at ``t_ref`` minus the model's, same units as ``K0``.
+    rate : ndarray (2, 2) or None
+        Symmetric: the stiffness change per second, or None (one verification: no rate).
+    t_ref : float
+        The latest time stamp of the anchoring sweeps (seconds, the bench clock).
+    sweeps : int
+        How many sweeps anchored it.
+    span_s : float
+        The time they span.
+    """
+
+    offset: np.ndarray
+    rate: np.ndarray | None
+    t_ref: float
+    sweeps: int
+    span_s: float
+
+    def model_at(self, model: FittedModel, t_s: float) -> FittedModel:
+        """``model`` with its stiffness at time ``t_s``; its ``meta`` says how it was made."""
+        dk = self.offset + (0.0 if self.rate is None else (t_s - self.t_ref) * self.rate)
+        meta = dict(model.meta)
+        meta.update(
+            drift_anchor_offset=self.offset.tolist(),
+            drift_anchor_sweeps=self.sweeps,
+            drift_anchor_time_s=float(t_s),
+            drift_anchor_ahead_s=float(t_s - self.t_ref),
+        )
+        if self.rate is not None:
+            meta.update(drift_trend=self.rate.tolist(), drift_trend_span_s=self.span_s)
+        return dataclasses.replace(model, K0=np.asarray(model.K0) + dk, meta=meta)
+
+
+def anchor(model: FittedModel, sweeps: Sequence[xr.Dataset], *, rate: bool = True) -> Anchor:
+    """Fit :class:`Anchor` to ``sweeps`` (time-stamped, each at one bias) with ``model``'s law.
+
+    Parameters
+    ----------
+    model : FittedModel
+        The run's model: its bias law is kept.
+    sweeps : sequence of xarray.Dataset
+        The verification sweeps, oldest first; every point with a time stamp.
+    rate : bool
+        Fit the rate too when the sweeps are at two times or more.
+
+    Raises
+    ------
+    DataError
+        With no sweep, or a sweep without a time stamp at every point.
+    """
+    if not sweeps:
+        raise DataError("no sweep to anchor the model on: verify a bias first")
+    rows = []
+    for j, sweep in enumerate(sweeps):
+        # the electrodes the model has (the others' biases are in its K0)
+        sweep = sweep.sel(electrode=list(model.electrodes))
+        for k in range(sweep.sizes["experiment"]):
+            t = point_times(sweep, k)
+            if t is None:
+                raise DataError(
+                    f"anchoring sweep {j} has no time stamp at every point: the gyro now needs "
+                    "the bench clock (time_s)"
+                )
+            mask = measured_mask(sweep)[k]
+            omega = 2 * np.pi * sweep["frequency"].values[mask]
+            psi = sweep["response"].values[k][mask]
+            rows.append((omega, psi, np.asarray(sweep["bias"].values[k], dtype=float), t))
+    times = np.concatenate([r[3] for r in rows])
+    t_ref = float(times.max())
+    span = float(np.ptp(times))
+    # a rate needs sweeps at different times, not one sweep's own span
+    starts = np.array([r[3].min() for r in rows])
+    with_rate = rate and len(rows) > 1 and float(np.ptp(starts)) > 0.0
+    n_k = 3 * (2 if with_rate else 1) + 3  # offset, rate, damping offset
+    n_par = n_k + 2 * len(rows)
+    blocks, targets = [], []
+    for j, (omega, psi, bias, t) in enumerate(rows):
+        p = model.polynomial(omega, bias)
+        z = model.z(omega, bias)
+        e0 = p - model.structure.product(psi, z)
+        cols = np.zeros((omega.size, 2, 2, n_par), dtype=complex)
+        for b, basis in enumerate(_BASIS):
+            term = model.structure.product(psi, np.broadcast_to(basis, z.shape))
+            cols[..., b] = term
+            if with_rate:
+                cols[..., 3 + b] = (t - t_ref)[:, None, None] * term
+            cols[..., n_k - 3 + b] = 1j * omega[:, None, None] * term
+        cols[..., n_k + 2 * j] = -p
+        cols[..., n_k + 2 * j + 1] = -1j * p
+        # e0 = cols @ x: the offsets that leave no equation error, by least squares; a
+        # response's noise δψ enters the equation error as δψ Z, so each point is weighted by
+        # 1/‖Z‖ (the points at the resonances, where Z is nearly singular, count the most)
+        weight = 1.0 / np.maximum(np.linalg.norm(z, axis=(1, 2)), 1e-300)
+        a = (cols * weight[:, None, None, None]).reshape(-1, n_par)
+        y = (e0 * weight[:, None, None]).reshape(-1)
+        blocks.append(np.concatenate([a.real, a.imag]))
+        targets.append(np.concatenate([y.real, y.imag]))
+    a_all, y_all = np.concatenate(blocks), np.concatenate(targets)
+    scale = np.linalg.norm(a_all, axis=0)
+    scale[scale == 0] = 1.0
+    x = np.linalg.lstsq(a_all / scale, y_all, rcond=None)[0] / scale
+
+    def sym(v: np.ndarray) -> np.ndarray:
+        return np.array([[v[0], v[1]], [v[1], v[2]]])
+
+    return Anchor(
+        offset=sym(x[:3]),
+        rate=sym(x[3:6]) if with_rate else None,
+        t_ref=t_ref,
+        sweeps=len(rows),
+        span_s=span,
+    )

@@ -1,0 +1,104 @@
+"""``[model] drift = "track"``: each answer solved for the gyro as it will be when it is verified.
+
+The run's fit keeps its bias law; :class:`Tracker` anchors that model on the run's latest verified
+windows (:func:`sysid_core.identification.anchor.anchor`: a stiffness offset, and its rate once
+two verifications are at hand) and moves it ahead to the middle of the next verification window:
+the latest time stamp, plus the settling after the bias change, plus half a window.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import xarray as xr
+
+from sysid_core.identification.anchor import anchor
+from sysid_core.identification.drift import offset_drift
+from sysid_core.model.fitted import FittedModel
+from sysid_core.run.verification import Verification
+
+__all__ = ["NEAR_ACCEPTANCES", "Tracker"]
+
+#: Earlier windows anchor the model when their split was under this many acceptances.
+NEAR_ACCEPTANCES = 10.0
+
+
+def _times(ds: xr.Dataset) -> np.ndarray:
+    if "time_s" not in ds:
+        return np.array([])
+    t = np.asarray(ds["time_s"].values, dtype=float).ravel()
+    return t[np.isfinite(t)]
+
+
+@dataclass
+class Tracker:
+    """The verified windows of a run, and the model moved to the time of the next one.
+
+    Parameters
+    ----------
+    settle_s : float
+        The device's settling time after a bias change (0 if it does not say).
+    near_hz : float
+        Earlier windows anchor the model only if they measured a split under this.
+    keep : int
+        How many of the latest verified windows anchor the model.
+    """
+
+    settle_s: float = 0.0
+    near_hz: float = float("inf")
+    keep: int = 4
+    windows: list[xr.Dataset] = field(default_factory=list)
+    splits: list[float] = field(default_factory=list)
+
+    def learned(self, ver: Verification) -> None:
+        """Keep the verification's last window if it verified a split at known times."""
+        t = _times(ver.sweep)
+        if ver.verified and ver.split_hz is not None and t.size == ver.sweep["frequency"].size:
+            self.windows.append(ver.sweep)
+            self.splits.append(float(ver.split_hz))
+
+    def anchoring(self) -> list[xr.Dataset]:
+        """The latest window, and up to ``keep - 1`` earlier ones with a split under ``near_hz``.
+
+        Windows far from degenerate modes are at biases far from the latest: what the model's
+        bias law misses between them (about a tenth of the split's change, measured) would be
+        taken for a drift.
+        """
+        older = [
+            w for w, s in zip(self.windows[:-1], self.splits[:-1], strict=True) if s <= self.near_hz
+        ]
+        return (
+            [*older[-(self.keep - 1) :], self.windows[-1]] if self.keep > 1 else self.windows[-1:]
+        )
+
+    def ahead_s(self) -> float:
+        """From the latest time stamp to the middle of the next window (seconds)."""
+        t = _times(self.windows[-1]) if self.windows else np.array([])
+        return self.settle_s + (0.5 * float(np.ptp(t)) if t.size else 0.0)
+
+    def now(
+        self, model: FittedModel, ds: xr.Dataset, say: Callable[[str], None], it: int
+    ) -> FittedModel:
+        """``model`` anchored on the latest windows, at the next window's middle.
+
+        ``model`` itself when no window has verified a split yet.
+        """
+        if not self.windows:
+            return model
+        found = anchor(model, self.anchoring())
+        latest = max(found.t_ref, float(_times(ds).max()) if _times(ds).size else found.t_ref)
+        moved = found.model_at(model, latest + self.ahead_s())
+        seen = offset_drift(moved)
+        rates = (
+            ""
+            if seen is None
+            else f"; drift {seen.common_hz_per_h * 1e3:+.4g} mHz/h common, split "
+            f"{seen.split_hz_per_h * 1e3:.3g} mHz/h"
+        )
+        say(
+            f"iteration {it}: the model anchored on {found.sweeps} verified window(s), "
+            f"{latest + self.ahead_s() - found.t_ref:.0f} s ahead{rates}"
+        )
+        return moved
