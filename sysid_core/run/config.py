@@ -63,8 +63,11 @@ class ModelConfig(_Strict):
 
     ``bias_terms`` (default 1) and ``stiffness`` (default ``"auto"``) are given to structures
     that take them (``act``, ``sen``); ``bias_terms = 0`` and ``stiffness = "linear"`` are the
-    paper's model. ``drift``: ``"none"`` (default) or ``"common"``, a common frequency drift
-    estimated from the measurements' time stamps (:mod:`sysid_core.identification.drift`).
+    paper's model. ``drift``: ``"none"`` (default); ``"common"``, ``"offsets"`` or ``"trend"``,
+    drift terms in the fit estimated from the measurements' time stamps
+    (:mod:`sysid_core.identification.drift`); ``"track"``, every answer solved for the gyro as
+    it will be at the next verification, the model anchored on the latest verified windows
+    (:mod:`sysid_core.run.tracking`). See docs/drift.md.
     """
 
     structure: str = "act"
