@@ -1,4 +1,7 @@
-"""The documentation site builds with ``mkdocs build --strict``, the README's command.
+"""The documentation site builds with ``mkdocs build --strict`` (the README's command), and its
+tutorial notebook runs from top to bottom to the simulated gyro's exact answer.
+
+The site:
 
 * The build succeeds and prints no warning. Strict mode fails on a broken link or anchor, a page
   missing from the navigation, a docstring griffe cannot match to its signature, a docstring role
@@ -10,10 +13,23 @@
 * Every public module of ``sysid_core`` is documented on a page of ``docs/api/``.
 * The docstring-role extension links what resolves and reports what does not (on a small
   package written here).
+
+The tutorial, ``docs/tutorials/measured-to-tuned.ipynb``, is executed with nbclient (a fresh
+ipykernel kernel, this environment's Python) in a temporary folder, as a user would run it. A
+last cell, added here and not stored in the notebook, reports the notebook's own results, which
+must hold:
+
+* the predicted bias's 95 % region holds the exact degenerate bias of the simulated gyro;
+* the simulated ``tune`` converged, with its measured split under the acceptance and the true
+  split at its final bias under it too, within 1 mV of the exact bias on each electrode;
+* the Bode plots and the bias path were drawn (three PNG outputs).
+
+The notebook is stored without outputs (checked too), so that the repository stays small.
 """
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 import re
@@ -22,10 +38,13 @@ import sys
 from pathlib import Path
 
 import griffe
+import nbformat
 import pytest
+from nbclient import NotebookClient
 
 ROOT = Path(__file__).resolve().parents[1]
 HOOKS = ROOT / "docs" / "hooks"
+NOTEBOOK = ROOT / "docs" / "tutorials" / "measured-to-tuned.ipynb"
 
 
 @pytest.fixture(scope="module")
@@ -108,12 +127,18 @@ def _load(tmp_path: Path, source: str) -> griffe.Object:
 def test_roles_become_links_and_unknown_names_are_reported(
     tmp_path: Path, caplog: pytest.LogCaptureFixture
 ) -> None:
-    source = '''"""Demo: :func:`~demo.tools.helper`, :mod:`.tools`, :class:`xarray.Dataset`,
+    source = '''r"""Demo: :func:`~demo.tools.helper`, :mod:`.tools`, :class:`xarray.Dataset`,
 :exc:`ValueError`, :func:`run`, :func:`missing` and :mod:`demo.gone`.
 
 Literal block::
 
     code
+
+The law :math:`w = v^2`:
+
+.. math::
+
+    Z = K - M \\omega^2
 """
 
 
@@ -131,5 +156,60 @@ def run():
     assert "`xarray.Dataset`" in text and "[`xarray.Dataset`]" not in text  # another library
     assert "`ValueError`" in text and "[`ValueError`]" not in text  # a builtin
     assert "Literal block:\n\n    code" in text
+    assert "The law `w = v^2`:" in text
+    assert "```latex\nZ = K - M \\omega^2\n```" in text
     assert len(warnings) == 2, warnings
     assert "'missing'" in warnings[0] and "'demo.gone'" in warnings[1]
+
+
+# ===================================================================== the tutorial
+# Runs in the notebook's kernel after its last cell: the names are the notebook's.
+REPORT = """
+import json
+print("REPORT " + json.dumps({
+    "bias_ci": [list(map(float, ci)) for ci in region.bias_ci],
+    "exact": [float(x) for x in exact],
+    "converged": bool(result.converged),
+    "split_hz": result.split_hz,
+    "acceptance_hz": config["tuning"]["acceptance_hz"],
+    "final": [float(x) for x in result.bias[:2]],
+    "true_split_hz": float(gyro.truth.split_hz(list(result.bias))),
+    "work": str(work),
+}))
+"""
+
+
+def test_the_notebook_is_stored_without_outputs() -> None:
+    nb = nbformat.read(NOTEBOOK, as_version=4)
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    assert code
+    dirty = [i for i, c in enumerate(code) if c.outputs or c.execution_count is not None]
+    assert not dirty, f"code cells {dirty} have outputs: clear them before committing"
+
+
+def test_the_tutorial_runs_and_reaches_the_exact_answer(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("TMPDIR", str(tmp_path))  # the notebook's `work` folder goes here
+    monkeypatch.setenv("JUPYTER_PLATFORM_DIRS", "1")
+    nb = nbformat.read(NOTEBOOK, as_version=4)
+    nb.cells.append(nbformat.v4.new_code_cell(REPORT))
+    NotebookClient(
+        nb, timeout=300, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}
+    ).execute()
+
+    images = sum(
+        "image/png" in out.get("data", {}) for cell in nb.cells for out in cell.get("outputs", [])
+    )
+    assert images == 3, "the two Bode plots and the bias path"
+    text = "".join(out.get("text", "") for out in nb.cells[-1].outputs)
+    report = json.loads(text.split("REPORT ", 1)[1])
+
+    assert Path(report["work"]).parent == tmp_path
+    for exact, (low, high) in zip(report["exact"], report["bias_ci"], strict=True):
+        assert low <= exact <= high, (exact, low, high)
+    assert report["converged"]
+    assert report["split_hz"] <= report["acceptance_hz"]
+    assert report["true_split_hz"] <= report["acceptance_hz"]
+    for final, exact in zip(report["final"], report["exact"], strict=True):
+        assert abs(final - exact) < 1e-3, (final, exact)

@@ -16,7 +16,8 @@ this extension rewrites every role:
 
 ``~`` shows the last part of the name only, as in Sphinx. The reStructuredText marker of a
 literal block is shown as Sphinx shows it (``text::`` as ``text:``); the block itself, indented,
-is a code block in Markdown too.
+is a code block in Markdown too. Formulas (``:math:`x```, ``.. math::``) are shown as LaTeX code,
+as the guide writes its formulas: the site loads no script to typeset them.
 """
 
 from __future__ import annotations
@@ -29,6 +30,8 @@ import griffe
 
 # reStructuredText's literal-block marker: "text::" is shown "text:", " ::" alone is dropped
 LITERAL = re.compile(r"(\s?)::\n(?=[ \t]*\n)")
+MATH = re.compile(r":math:`([^`]+)`")
+MATH_BLOCK = re.compile(r"^([ \t]*)\.\. math::[ \t]*(.*)$")
 ROLE = re.compile(r":(?:py:)?(?:func|class|mod|data|meth|attr|exc|obj|const):`([~!]?)([^`]+)`")
 
 log = griffe.get_logger("sphinx_roles")
@@ -72,6 +75,30 @@ def _resolve(obj: griffe.Object, name: str, collection: griffe.ModulesCollection
     return f"{head}.{rest}" if rest else head
 
 
+def _math(text: str) -> str:
+    """Formulas as LaTeX code: ``:math:`x``` inline, a ``.. math::`` directive as a block."""
+    lines = MATH.sub(lambda m: f"`{m.group(1)}`", text).split("\n")
+    out: list[str] = []
+    i = 0
+    while i < len(lines):
+        directive = MATH_BLOCK.match(lines[i])
+        if directive is None:
+            out.append(lines[i])
+            i += 1
+            continue
+        indent, first = directive.groups()
+        body = [first] if first.strip() else []
+        i += 1
+        while i < len(lines) and (
+            not lines[i].strip() or len(lines[i]) - len(lines[i].lstrip()) > len(indent)
+        ):
+            if lines[i].strip():
+                body.append(lines[i].strip())
+            i += 1
+        out += [f"{indent}```latex", *(indent + b for b in body), f"{indent}```", ""]
+    return "\n".join(out)
+
+
 def _public(target: griffe.Object) -> bool:
     names = target.path.split(".")
     return not any(n.startswith("_") and not n.startswith("__") for n in names)
@@ -90,7 +117,8 @@ class SphinxRoles(griffe.Extension):
             return
         for obj in _walk(pkg):
             if obj.docstring is not None:
-                text = ROLE.sub(lambda m, o=obj: self._link(m, o, loader), obj.docstring.value)
+                text = _math(obj.docstring.value)
+                text = ROLE.sub(lambda m, o=obj: self._link(m, o, loader), text)
                 obj.docstring.value = LITERAL.sub(lambda m: "\n" if m.group(1) else ":\n", text)
 
     def _link(self, match: re.Match[str], obj: griffe.Object, loader: griffe.GriffeLoader) -> str:
