@@ -54,7 +54,6 @@ def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
     env = dict(os.environ)
     env["TMPDIR"] = str(out.parent)  # where the tutorial writes its files
     env["NO_MKDOCS_2_WARNING"] = "1"  # the theme's notice about its end of life
-    env["JUPYTER_PLATFORM_DIRS"] = "1"
     env.pop("SYSID_DOCS_EXECUTE", None)
     done = subprocess.run(
         [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(out / "site")],
@@ -191,7 +190,6 @@ def test_the_tutorial_runs_and_reaches_the_exact_answer(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setenv("TMPDIR", str(tmp_path))  # the notebook's `work` folder goes here
-    monkeypatch.setenv("JUPYTER_PLATFORM_DIRS", "1")
     nb = nbformat.read(NOTEBOOK, as_version=4)
     nb.cells.append(nbformat.v4.new_code_cell(REPORT))
     NotebookClient(
