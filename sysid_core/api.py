@@ -10,8 +10,8 @@ the run's :class:`~sysid_core.run.summary.RunSummary` (final bias, verified spli
 history, and the paths of every file written). A run that does not converge is returned, not
 raised: look at ``result.converged`` and ``result.status``.
 
-Example
--------
+Examples
+--------
 >>> from sysid_core import tune
 >>> result = tune("examples/cloverleaf-2electrode.toml", out="runs/nb")  # doctest: +SKIP
 >>> result.converged, result.bias, result.split_hz  # doctest: +SKIP
@@ -262,12 +262,13 @@ def fit(
     TypeError
         For arguments of the wrong type.
     DataError
-        For data that cannot be fitted (see :func:`sysid_core.data.schema.validate`).
+        For data that cannot be fitted (see :func:`sysid_core.data.validation.validate`).
 
     Warns
     -----
     FitWarning
-        When the result is probably meaningless (:func:`check_fit`).
+        When the result is probably meaningless
+        (:func:`~sysid_core.identification.fitting.check_fit`).
 
     Examples
     --------

@@ -782,7 +782,7 @@ def test_names_that_left_their_module_forward_to_their_new_home() -> None:
 
 def test_tests_mirror_the_rooms() -> None:
     """``tests/<room>/`` holds the tests of each room that has its own; at the top only the
-    tests of the whole (architecture, docs) and the shared helpers."""
+    tests of the whole (architecture, docs, the documentation site) and the shared helpers."""
     tests = ROOT / "tests"
     rooms = {p.name for p in tests.iterdir() if p.is_dir() and p.name in ROOMS}
     assert rooms >= {"data", "model", "identification", "tuning", "device", "plugin", "run"}
@@ -790,6 +790,6 @@ def test_tests_mirror_the_rooms() -> None:
     for room in rooms:
         assert list((tests / room).glob("test_*.py")), room
     top = sorted(p.name for p in tests.glob("test_*.py"))
-    assert top == ["test_architecture.py", "test_docs.py"], top
+    assert top == ["test_architecture.py", "test_docs.py", "test_site.py"], top
     names = [p.name for p in tests.rglob("test_*.py") if "plugins" not in p.parts]
     assert len(names) == len(set(names)), "test file names must be unique (pytest's rootdir)"

@@ -2,7 +2,7 @@
 
 The commands register themselves on the app of :mod:`sysid_core.cli.app` when their modules are
 imported here; plugins add theirs through the ``sysid_cli_commands`` hook
-(:func:`~sysid_core.plugin.registry.add_plugin_commands`, e.g. ``sysid instrument-sim`` from the
+(:func:`~sysid_core.cli.app.add_plugin_commands`, e.g. ``sysid instrument-sim`` from the
 ``visa`` device package). Exit statuses and messages are described in :mod:`.app`.
 """
 

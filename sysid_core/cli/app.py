@@ -181,7 +181,7 @@ def add_plugin_commands() -> None:
     """Register the commands that plugins add (hook ``sysid_cli_commands``) on :data:`app`.
 
     A plugin command whose name a registered command already has is skipped with a
-    :class:`~sysid_core.errors.PluginLoadWarning`.
+    :class:`~sysid_core.plugin.registry.PluginLoadWarning`.
     """
     import warnings
 

@@ -56,7 +56,7 @@ def make_sweep(
     Coordinates ``frequency`` (Hz), ``output`` (y1, y2), ``input`` (u1, u2) and, when given,
     ``time_s`` (each point's time stamp, seconds, the device's clock); attributes ``units``
     (the response's units, ``""`` if unknown) and ``source`` (where it came from). Nothing is
-    checked here; :func:`read_sweep` checks before it calls this.
+    checked here; :func:`~sysid_core.data.sweepfiles.read_sweep` checks before it calls this.
     """
     return xr.DataArray(
         np.asarray(response, dtype=complex),

@@ -158,6 +158,13 @@ class GyroTruth:
     ) -> np.ndarray:
         """Biases on two electrodes that make ``K = lambda M`` exactly, the others held.
 
+        Without a :attr:`bias_law`, the closed form
+        (:func:`sysid_core.model.modal.degenerate_pair_bias`) with the root
+        ``v_p = v_gyro - dv_p`` of the sign of ``v_gyro``. With one, the stiffness is no longer
+        affine in ``w``: the closed form is the start of a solve (Powell's hybrid
+        method, ``scipy.optimize.root``) of the two conditions that make
+        ``M^-1/2 K M^-1/2`` a multiple of the identity, to a relative anisotropy below 1e-11.
+
         Parameters
         ----------
         electrodes : tuple of int
@@ -165,13 +172,6 @@ class GyroTruth:
         bias : sequence of float, optional
             Every electrode's bias (volts); the electrodes not in ``electrodes`` stay at these
             values. Default: 0 V.
-
-        Without a :attr:`bias_law`, the closed form
-        (:func:`sysid_core.model.modal.degenerate_pair_bias`) with the root
-        ``v_p = v_gyro - dv_p`` of the sign of ``v_gyro``. With one, the stiffness is no longer
-        affine in ``w``: the closed form is the start of a solve (Powell's hybrid
-        method, ``scipy.optimize.root``) of the two conditions that make
-        ``M^-1/2 K M^-1/2`` a multiple of the identity, to a relative anisotropy below 1e-11.
 
         Raises
         ------

@@ -141,7 +141,7 @@ def stiffness_map(problem: FitProblem) -> np.ndarray:
 
     Rows: ``M`` (m11, m12, m22), ``K0`` ((rad/s)²), then each ``K_p`` ((rad/s)²/V²), then
     each ``L_p`` ((rad/s)²/V⁴, quadratic law only), each as (11, 12, 22); columns: ``theta``.
-    The same map as :func:`sysid_core.model.fitted.model_from_problem`.
+    The same map as :func:`sysid_core.identification.fitting.model_from_problem`.
     """
     s, lay = problem.scaling, problem.layout
     n_e = lay.n_electrodes

@@ -306,7 +306,7 @@ def unit_mass(problem: FitProblem, result: ObjectiveResult) -> tuple[ObjectiveRe
 def model_from_problem(problem: FitProblem, result: ObjectiveResult, **meta: object) -> FittedModel:
     """Map an objective's scaled solution of ``problem`` back to physical units.
 
-    The inverse of the scaling of :mod:`sysid_core.problem`. The model's channel names are the
+    The inverse of the scaling of :mod:`.problem`. The model's channel names are the
     data set's ``output`` and ``input`` coordinates; ``meta`` is added to the model's ``meta``
     (e.g. the solver's name and the fit time). The map is linear in ``result.theta``; a fit
     normalises the scale first (:func:`unit_mass`).

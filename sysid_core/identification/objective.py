@@ -5,7 +5,7 @@ An :class:`Objective` assembles conic programs from a
 (:mod:`sysid_core.identification.programs`), solves them with the
 :class:`~sysid_core.conic.program.Solver` it is given, as many times as its method needs, and
 returns an :class:`ObjectiveResult` in scaled units;
-:func:`sysid_core.model.fitted.model_from_problem` maps that to physical units.
+:func:`sysid_core.identification.fitting.model_from_problem` maps that to physical units.
 """
 
 from __future__ import annotations

@@ -71,11 +71,11 @@ def to_statespace(
     *,
     rtol: float = 1e-2,
 ) -> control.StateSpace:
-    """A real, stable state-space system that reproduces :meth:`response` over a band.
+    """A real, stable state-space system that reproduces the model's response over a band.
 
-    The complex polynomial ``P`` has complex coefficients in the real frequency, so the
-    model is not a real rational function of ``s``; the realisation matches it over
-    ``band_hz`` only. It is built in two parts:
+    The response is :meth:`~.fitted.FittedModel.response`. The complex polynomial ``P`` has
+    complex coefficients in the real frequency, so the model is not a real rational function of
+    ``s``; the realisation matches it over ``band_hz`` only. It is built in two parts:
 
     * the resonances, exactly: the two upper poles ``p_i`` of ``Z^-1`` with their exact
       residues ``P(nu(-j p_i)) R_i`` (``act``) or ``R_i P(nu(-j p_i))`` (``sen``), ``R_i``
@@ -101,8 +101,9 @@ def to_statespace(
     Returns
     -------
     control.StateSpace
-        Inputs and outputs named after the data's channels (:attr:`inputs`,
-        :attr:`outputs`), named after the bias. Attributes set on it, measured on
+        Inputs and outputs named after the data's channels
+        (:attr:`~.fitted.FittedModel.inputs`, :attr:`~.fitted.FittedModel.outputs`), named after
+        the bias. Attributes set on it, measured on
         ``N_BAND_POINTS`` (1001) evenly spaced frequencies ``f`` of the band with ``G``
         the model's response and ``G_ss`` the system's:
 
@@ -236,8 +237,9 @@ def to_frd(
     Returns
     -------
     control.FrequencyResponseData
-        :meth:`response` at those frequencies (stored in rad/s, as python-control expects),
-        inputs and outputs named after the data's channels, named after the bias.
+        :meth:`~.fitted.FittedModel.response` at those frequencies (stored in rad/s, as
+        python-control expects), inputs and outputs named after the data's channels, named
+        after the bias.
 
     Raises
     ------

@@ -65,7 +65,7 @@ class StudyConfig(BaseModel):
 def load_study_config(path: str | os.PathLike[str]) -> StudyConfig:
     """Read a study configuration (the ``sysid tune`` tables plus ``[study]``).
 
-    Only the syntax and the types are checked here; :func:`plan_study` checks the rest.
+    Only the syntax and the types are checked here; :func:`~.plan.plan_study` checks the rest.
     """
     data = read_toml(path)
     study = data.pop("study", {})
