@@ -159,8 +159,8 @@ class ColumnMap(BaseModel):
     def _delimiter(cls, value: str) -> str:
         if value != "whitespace" and (len(value) != 1 or value.isalnum() or value in ".+-\"'"):
             raise ValueError(
-                f"{value!r}: expected one character such as ',' ';' or '\\t' (not a letter, digit, "
-                "sign, point or quote), or 'whitespace' (runs of spaces and tabs)"
+                "expected one character such as ',' ';' or '\\t' (not a letter, digit, sign, "
+                "point or quote), or 'whitespace' (runs of spaces and tabs)"
             )
         return value
 

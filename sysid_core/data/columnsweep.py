@@ -119,7 +119,8 @@ def read_columns(
     def value_at(k: int, o: int, i: int) -> str:
         table, entry = where[o, i]
         columns = ", ".join(v for key, v in table.labels.items() if key.startswith(f"{entry}."))
-        return f"{table.path}, line {table.lines[k]}: {entry} (columns {columns})"
+        channel = CHANNEL_KEYS[2 * o + i]
+        return f"{table.path}, line {table.lines[k]}: {channel} (columns {columns})"
 
     source = ", ".join(str(t.path) for t in tables)
     check_sweep(f, resp, source, freq_at, value_at)
@@ -141,9 +142,10 @@ def _same_grid(first: _Table, other: _Table) -> None:
         bad = np.flatnonzero(~(np.abs(f1 - f0) <= GRID_RTOL * np.abs(f0)))
     if bad.size:
         k = int(bad[0])
+        here, there = float(f1[k]), float(f0[k])
         raise FileFormatError(
-            f"{other.path}, line {other.lines[k]}: frequency {f1[k]!r}, but {first.path} has "
-            f"{f0[k]!r} at that point (line {first.lines[k]}); the files of one experiment must "
+            f"{other.path}, line {other.lines[k]}: frequency {here!r}, but {first.path} has "
+            f"{there!r} at that point (line {first.lines[k]}); the files of one experiment must "
             "share their frequency grid"
         )
 
@@ -165,7 +167,7 @@ def _complex(table: _Table, entry: str, column_map: ColumnMap) -> np.ndarray:
             k = int(negative[0])
             raise FileFormatError(
                 f"{table.path}, line {table.lines[k]}: column {table.labels[f'{entry}.mag']} "
-                f"({entry}.mag) is {mag[k]!r}: a linear magnitude is never negative (is the "
+                f"({entry}.mag) is {float(mag[k])!r}: a linear magnitude is never negative (is the "
                 "column in dB? then map it as db)"
             )
     phase = value["phase_rad"] if "phase_rad" in value else np.deg2rad(value["phase_deg"])

@@ -66,7 +66,9 @@ def load_mat73(path: Path, wanted: Collection[str]) -> dict[str, Any]:
                 if not name.startswith("#")  # #refs#, #subsystem#: MATLAB's own
             }
     except OSError as exc:
-        raise FileFormatError(f"{path}: a MATLAB v7.3 file HDF5 cannot read ({exc})") from exc
+        raise FileFormatError(
+            f"{path}: a MATLAB v7.3 file that HDF5 cannot read, damaged or truncated ({exc})"
+        ) from exc
 
 
 def _matlab_class(obj: Any) -> str:
