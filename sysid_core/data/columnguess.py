@@ -93,7 +93,7 @@ def _toml(value: object) -> str:
         return "[" + ", ".join(_toml(v) for v in value) + "]"
     if isinstance(value, dict):
         return "{ " + ", ".join(f"{k} = {_toml(v)}" for k, v in value.items()) + " }"
-    return toml_string(str(value))
+    return toml_string(str(value)).replace("\\u0009", "\\t")
 
 
 def guess_column_map(path: str | os.PathLike[str]) -> Guess:

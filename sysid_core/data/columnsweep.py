@@ -7,7 +7,8 @@ read_sweep` would: complex, ``(frequency, output, input)``, frequencies in Hz, t
 the file, the line and the column with the map's key, e.g. ``exp0-u1.csv, line 7: column
 'theta1' (y1.phase_deg) is 'n/a', not a number``.
 
-Text is UTF-8 (a byte-order mark is allowed), else Latin-1 (an instrument's ``°`` or ``µ``).
+Text is UTF-8 (a byte-order mark is allowed), UTF-16 with its byte-order mark (Windows' "Unicode
+text"), else Latin-1 (an instrument's ``°`` or ``µ`` from a Windows PC).
 """
 
 from __future__ import annotations
@@ -32,8 +33,13 @@ GRID_RTOL = 1e-9
 
 
 def decode_text(path: Path) -> str:
-    """The text of a file: UTF-8 (with or without a byte-order mark), else Latin-1."""
+    """The text of a file: UTF-16 with its byte-order mark, UTF-8 (with or without), or Latin-1."""
     raw = path.read_bytes()
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):  # Windows' "Unicode text"
+        try:
+            return raw.decode("utf-16")
+        except UnicodeDecodeError as exc:
+            raise FileFormatError(f"{path}: not a UTF-16 text file ({exc.reason})") from exc
     if b"\x00" in raw[:4096]:
         raise FileFormatError(f"{path}: not a text file (it holds NUL bytes)")
     try:

@@ -84,6 +84,11 @@ class ManifestExperiment:
     files: tuple[tuple[str, Path], ...] = ()
     columns: ColumnMap | None = None
 
+    def __post_init__(self) -> None:
+        """Without ``files`` (made as before they existed): the one ``file``."""
+        if not self.files:
+            object.__setattr__(self, "files", (("", self.file),))
+
 
 @dataclass(frozen=True)
 class Manifest:

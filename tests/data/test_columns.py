@@ -530,3 +530,65 @@ def test_the_docs_column_maps_are_valid() -> None:
             assert set(files) == {"u1", "u2"} or column_map.layout == "channel"
     shipped = tomllib.loads((ROOT / "examples" / "lockin" / "manifest.toml").read_text())
     assert manifests[1] == {k: v for k, v in shipped.items() if k != "device"}
+
+
+# ---------------------------------------------------------------------- the map's other keys
+def test_other_layouts_read_exactly(tmp_path: Path, truth: xr.Dataset) -> None:
+    """Whitespace, skipped lines, no header, rad/s, re/im, quotes, UTF-16, Latin-1, tabs."""
+    f, h, _ = sweeps(truth)[0]
+    omega = 2 * np.pi * f
+    rows = [
+        f"{float(w)!r}   {float(z.real)!r}\t{float(z.imag)!r}"
+        for w, z in zip(omega, h[:, 1, 0], strict=True)
+    ]
+    path = tmp_path / "plain.dat"
+    path.write_text("Sweep 12 (a title line)\nNo header follows\n" + "\n".join(rows) + "\n")
+    columns = parse_column_map(
+        {
+            "delimiter": "whitespace",
+            "skip_lines": 2,
+            "header": False,
+            "frequency": 1,
+            "frequency_unit": "rad/s",
+            "channel": {"re": 2, "im": 3},
+        },
+        "test",
+    )
+    files = {c: path for c in ("y1_u1", "y1_u2", "y2_u1", "y2_u2")}
+    sweep = read_columns(files, columns)
+    np.testing.assert_allclose(sweep["frequency"].values, f, rtol=1e-15)
+    assert (sweep.values[:, 1, 1] == h[:, 1, 0]).all() and sweep.attrs["units"] == ""
+    with pytest.raises(FileFormatError, match=r"for files keyed 'y1_u1', .*; got 'u1', 'u2'"):
+        read_columns({"u1": path, "u2": path}, columns)
+
+    # Quoted fields, a trailing delimiter, a degree sign in Latin-1, then in UTF-16.
+    lines = ['"Freq; Hz";"Mag";"Phase (°)";'] + [
+        f'"{float(fk)!r}";{float(abs(z))!r};{float(np.degrees(np.angle(z)))!r};'
+        for fk, z in zip(f, h[:, 0, 0], strict=True)
+    ]
+    columns = parse_column_map(
+        {
+            "delimiter": ";",
+            "frequency": "Freq; Hz",
+            "channel": {"mag": "Mag", "phase_deg": "Phase (°)"},
+        },
+        "test",
+    )
+    for encoding in ("latin-1", "utf-16"):
+        path = tmp_path / f"{encoding}.csv"
+        path.write_bytes(("\r\n".join(lines) + "\r\n").encode(encoding))
+        sweep = read_columns(dict.fromkeys(files, path), columns)
+        np.testing.assert_allclose(sweep.values[:, 0, 0], h[:, 0, 0], rtol=1e-12, atol=0)
+        guess = guess_column_map(path)
+        assert guess.keys["channel"] == {"mag": "Mag", "phase_deg": "Phase (°)"}, guess.toml()
+
+    path = tmp_path / "tabs.txt"
+    path.write_text("f\tre\tim\n" + "\n".join(r.replace("   ", "\t") for r in rows) + "\n")
+    assert 'delimiter = "\\t"\n' in guess_column_map(path).toml()
+
+
+def test_a_manifest_experiment_made_with_one_file_lists_it() -> None:
+    from sysid_core.data.manifest import ManifestExperiment
+
+    e = ManifestExperiment(0, (0.0,), Path("a.csv"))
+    assert e.files == (("", Path("a.csv")),) and e.columns is None
