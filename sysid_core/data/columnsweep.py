@@ -1,11 +1,11 @@
 """Sweeps from text exports read with a column map (:mod:`sysid_core.data.columnmap`).
 
 :func:`read_columns` reads one experiment's files (one file holding the whole response, one file
-per drive input, or one file per channel) and gives the sweep :func:`~sysid_core.data.sweepfiles.
-read_sweep` would: complex, ``(frequency, output, input)``, frequencies in Hz, the optional
-``time_s``, the same checks. Every error is a :class:`~sysid_core.errors.FileFormatError` naming
-the file, the line and the column with the map's key, e.g. ``exp0-u1.csv, line 7: column
-'theta1' (y1.phase_deg) is 'n/a', not a number``.
+per drive input, or one file per channel) and gives the sweep that
+:func:`~sysid_core.data.sweepfiles.read_sweep` gives: complex, ``(frequency, output, input)``,
+frequencies in Hz, the optional ``time_s``, the same checks. Every error is a
+:class:`~sysid_core.errors.FileFormatError` naming the file, the line and the column with the
+map's key, e.g. ``exp0-u1.csv, line 7: column 'theta1' (y1.phase_deg) is 'n/a', not a number``.
 
 Text is UTF-8 (a byte-order mark is allowed), UTF-16 with its byte-order mark (Windows' "Unicode
 text"), else Latin-1 (an instrument's ``°`` or ``µ`` from a Windows PC).
