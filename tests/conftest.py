@@ -1,4 +1,8 @@
-"""Fixtures and hooks of the test suite (helpers live in ``truths.py`` and ``installing.py``)."""
+"""Fixtures and hooks of the test suite.
+
+Helpers live in ``truths.py``, ``installing.py`` and ``exports.py`` (files as instruments and
+MATLAB write them).
+"""
 
 from __future__ import annotations
 

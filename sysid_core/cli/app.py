@@ -162,8 +162,8 @@ def command(name: str) -> Callable[[F], F]:
         def guarded(*args: Any, **kwargs: Any) -> Any:
             try:
                 return func(*args, **kwargs)
-            except (SystemExit, typer.Exit, typer.Abort):
-                raise
+            except (SystemExit, typer.Exit, typer.Abort, typer.BadParameter):
+                raise  # (a usage error: typer prints the usage, exit status 2)
             except BaseException as exc:
                 if os.environ.get("SYSID_DEBUG") and not isinstance(exc, KeyboardInterrupt):
                     raise

@@ -2,6 +2,8 @@
 
 * ``sysid import MANIFEST.toml [--out DATA.nc] [--force]``: read a manifest and its response
   files, validate them (rank condition (6) included) and save one netCDF data set.
+* ``sysid import --guess FILE``: print a column map proposed for an instrument's text export
+  (TOML for the manifest, with what it could not decide as comments); nothing is written.
 * ``sysid export DATA --format csv|s2p|mat|nc --out DIR [--force]``: one response file per
   experiment and ``DIR/manifest.toml``; DATA is a netCDF data set or a manifest.
 
@@ -19,6 +21,7 @@ import typer
 import xarray as xr
 
 from sysid_core.cli.app import command, out
+from sysid_core.data.columnguess import guess_column_map
 from sysid_core.data.io import check_output_file
 from sysid_core.data.manifest import (
     data_files,
@@ -53,15 +56,30 @@ def _describe(ds: xr.Dataset) -> str:
 @command("import")
 def import_cmd(
     manifest: Annotated[
-        Path, typer.Argument(help="Manifest of measured experiments (.toml, see docs).")
-    ],
+        Path | None, typer.Argument(help="Manifest of measured experiments (.toml, see docs).")
+    ] = None,
     out_path: Annotated[
         Path | None,
         typer.Option("--out", help="Write the data set here (netCDF; default MANIFEST.nc)."),
     ] = None,
     force: Annotated[bool, typer.Option("--force", help="Replace an existing file.")] = False,
+    guess: Annotated[
+        Path | None,
+        typer.Option(
+            "--guess",
+            help="Print a column map proposed for this text export (TOML to check and paste "
+            "into a manifest) and exit.",
+        ),
+    ] = None,
 ) -> None:
     """Read a manifest and its response files into one validated netCDF data set."""
+    if guess is not None:
+        if manifest is not None or out_path is not None or force:
+            raise typer.BadParameter("takes no MANIFEST, --out or --force", param_hint="--guess")
+        typer.echo(guess_column_map(guess).toml(), nl=False)
+        return
+    if manifest is None:
+        raise typer.BadParameter("missing (or give --guess FILE)", param_hint="'MANIFEST'")
     if manifest.suffix.lower() != ".toml":
         raise ManifestError(f"{manifest}: sysid import reads a manifest (.toml)")
     target = out_path or manifest.with_suffix(".nc")

@@ -2,9 +2,11 @@
 
 Lives here: the ``xarray`` schema of a multi-experiment data set and its netCDF files
 (:mod:`.schema`), the checks of a data set and of the rank condition (6) (:mod:`.validation`),
-atomic file writing (:mod:`.io`), one sweep per file in CSV, Touchstone, MATLAB and netCDF
-(:mod:`.sweepfiles`), manifests of measured experiments (:mod:`.manifest`) and the reading of a
-run folder's measurements (:mod:`.runfolder`).
+atomic file writing (:mod:`.io`), one sweep per file in CSV, Touchstone, MATLAB (v4 to v7.3,
+:mod:`.mat73`) and netCDF (:mod:`.sweepfiles`), instruments' text exports read with column maps
+(:mod:`.columnmap`, :mod:`.columnsweep`, :mod:`.columnguess`), manifests of measured experiments
+(:mod:`.manifest`, :mod:`.export`) and the reading of a run folder's measurements
+(:mod:`.runfolder`).
 
 May import: :mod:`sysid_core.errors` and third-party libraries only.
 """

@@ -1,4 +1,4 @@
-"""Manifests of measured experiments: one TOML file naming a response file per bias.
+"""Manifests of measured experiments: one TOML file naming the response files of each bias.
 
 A manifest (``docs/measured-data.md``)::
 
@@ -9,11 +9,21 @@ A manifest (``docs/measured-data.md``)::
     bias_v = [0.0, 0.0]                # one δv per electrode, volts relative to ground
     file = "exp0.csv"                  # relative to the manifest; .csv, .s2p, .mat or .nc
 
+Files that are not in the toolkit's own layout (an instrument's text export) are read with a
+column map (:mod:`sysid_core.data.columnmap`): a top-level ``[columns]`` table for every
+experiment, overridden key by key by an experiment's ``[experiment.columns]``. An experiment may
+then have several files, ``files = { u1 = "a.csv", u2 = "b.csv" }`` (one per drive input) or
+``files = { y1_u1 = ..., y1_u2 = ..., y2_u1 = ..., y2_u2 = ... }`` (one per channel), instead of
+``file``. A column map applies to text files only: ``.s2p``, ``.mat`` and ``.nc`` files are read
+as always.
+
 * :func:`read_manifest`: the manifest's contents, checked (no response file is read).
-* :func:`load_manifest`: every response file read (:func:`sysid_core.data.sweepfiles.read_sweep`),
-  the data set built (:func:`sysid_core.data.schema.make_dataset`; grids may differ) and validated
+* :func:`load_manifest`: every response file read (:func:`sysid_core.data.sweepfiles.read_sweep`,
+  or :func:`sysid_core.data.columnsweep.read_columns` with a column map), the data set built
+  (:func:`sysid_core.data.schema.make_dataset`; grids may differ) and validated
   (:func:`sysid_core.data.validation.validate`, rank condition (6) included).
-* :func:`export_dataset`: the other way, one response file per experiment and a manifest.
+* :func:`export_dataset`: the other way, one response file per experiment and a manifest
+  (:mod:`sysid_core.data.export`).
 * :func:`load_data` / :func:`data_files`: a data path of either kind (``.toml`` or netCDF).
 
 Experiments are numbered from 0 in the order of the ``[[experiment]]`` tables; every error names
@@ -32,17 +42,13 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from sysid_core.data.io import atomic_write
-from sysid_core.data.schema import (
-    load_dataset,
-    make_dataset,
-    measured_mask,
-    point_times,
-    save_dataset,
-)
-from sysid_core.data.sweepfiles import make_sweep, read_sweep, write_sweep
+from sysid_core.data.columnmap import LAYOUTS, ColumnMap, parse_column_map
+from sysid_core.data.columnsweep import read_columns
+from sysid_core.data.export import EXPORT_FORMATS, MANIFEST_NAME, export_dataset, export_files
+from sysid_core.data.schema import load_dataset, make_dataset
+from sysid_core.data.sweepfiles import read_sweep
 from sysid_core.data.validation import validate
-from sysid_core.errors import DataError, FileFormatError, ManifestError, MissingBiasError
+from sysid_core.errors import DataError, FileFormatError, ManifestError
 
 __all__ = [
     "EXPORT_FORMATS",
@@ -57,21 +63,31 @@ __all__ = [
     "read_manifest",
 ]
 
-#: Formats of :func:`export_dataset` (the response files' extensions).
-EXPORT_FORMATS = ("csv", "s2p", "mat", "nc")
-#: The name of the manifest :func:`export_dataset` writes.
-MANIFEST_NAME = "manifest.toml"
-_TOP_KEYS = ("device", "structure_potential_v", "electrodes", "experiment")
-_EXPERIMENT_KEYS = ("bias_v", "file")
+_TOP_KEYS = ("device", "structure_potential_v", "electrodes", "columns", "experiment")
+_EXPERIMENT_KEYS = ("bias_v", "file", "files", "columns")
+#: Formats with their own reader: a column map does not apply to them.
+_OWN_FORMATS = (".s2p", ".mat", ".nc")
 
 
 @dataclass(frozen=True)
 class ManifestExperiment:
-    """One ``[[experiment]]`` table: its number, bias (V, one per electrode) and response file."""
+    """One ``[[experiment]]`` table: its number, bias (V, one per electrode) and response files.
+
+    ``file`` is its response file (the first of ``files`` when it has several); ``files`` gives
+    every file with its key (``""`` for a single file, ``u1``/``u2`` or ``y1_u1`` ...);
+    ``columns`` is the column map it is read with, or ``None`` (the file's own format).
+    """
 
     index: int
     bias_v: tuple[float, ...]
     file: Path
+    files: tuple[tuple[str, Path], ...] = ()
+    columns: ColumnMap | None = None
+
+    def __post_init__(self) -> None:
+        """Without ``files`` (made as before they existed): the one ``file``."""
+        if not self.files:
+            object.__setattr__(self, "files", (("", self.file),))
 
 
 @dataclass(frozen=True)
@@ -107,7 +123,8 @@ def read_manifest(path: str | os.PathLike[str]) -> Manifest:
     ManifestError
         A missing or unparsable manifest, an unknown key, a missing or mistyped value, an empty
         experiment list, a bias with the wrong number of values, a response file that does not
-        exist; naming the manifest and the experiment's number.
+        exist, a column map that is not valid or does not fit the experiment's files; naming the
+        manifest, the experiment's number and the key.
     """
     path = Path(path)
     doc = _read_toml(path)
@@ -120,8 +137,11 @@ def read_manifest(path: str | os.PathLike[str]) -> Manifest:
         raise ManifestError(f"{path}: device is {device!r}; expected a string")
     vg = _number(doc["structure_potential_v"], f"{path}: structure_potential_v")
     electrodes = _electrodes(doc["electrodes"], path)
+    top = doc.get("columns", {})
+    if not isinstance(top, dict):
+        raise ManifestError(f"{path}: columns is {top!r}; expected a table ([columns])")
     tables = _experiment_tables(doc["experiment"], path)
-    experiments = [_experiment(k, table, path, electrodes) for k, table in enumerate(tables)]
+    experiments = [_experiment(k, table, path, electrodes, top) for k, table in enumerate(tables)]
     return Manifest(path, vg, tuple(electrodes), tuple(experiments), device)
 
 
@@ -166,14 +186,16 @@ def _experiment_tables(tables: object, path: Path) -> list[dict[str, Any]]:
 
 
 def _experiment(
-    k: int, table: dict[str, Any], path: Path, electrodes: list[str]
+    k: int, table: dict[str, Any], path: Path, electrodes: list[str], top: dict[str, Any]
 ) -> ManifestExperiment:
-    """Experiment ``k`` of the manifest at ``path``, checked; its response file must exist."""
+    """Experiment ``k`` of the manifest at ``path``, checked; its response files must exist.
+
+    ``top`` is the manifest's ``[columns]`` table (empty without one).
+    """
     where = f"{path}, experiment {k}"
     _unknown(table, _EXPERIMENT_KEYS, where)
-    for key in _EXPERIMENT_KEYS:
-        if key not in table:
-            raise ManifestError(f"{where}: missing key {key!r}")
+    if "bias_v" not in table:
+        raise ManifestError(f"{where}: missing key 'bias_v'")
     bias = table["bias_v"]
     if not isinstance(bias, list) or len(bias) != len(electrodes):
         count = f"{len(bias)} value(s)" if isinstance(bias, list) else repr(bias)
@@ -182,14 +204,87 @@ def _experiment(
             f"{', '.join(electrodes)})"
         )
     values = tuple(_number(b, f"{where}: bias_v[{p}]") for p, b in enumerate(bias))
-    name = table["file"]
-    if not isinstance(name, str) or not name:
-        raise ManifestError(f"{where}: file is {name!r}; expected a file name")
-    file = path.parent / name
-    if not file.is_file():
-        what = "is not a file" if file.exists() else "does not exist"
-        raise ManifestError(f"{where}: response file {file} {what}")
-    return ManifestExperiment(k, values, file)
+    files = _files(table, where, path)
+    columns = _column_map(table, top, where, files)
+    return ManifestExperiment(k, values, files[0][1], files, columns)
+
+
+def _files(table: dict[str, Any], where: str, path: Path) -> tuple[tuple[str, Path], ...]:
+    """An experiment's ``file`` (key ``""``) or ``files`` (keyed by input or channel)."""
+    if ("file" in table) == ("files" in table):
+        both = "both 'file' and 'files'" if "file" in table else "no key 'file' (or 'files')"
+        raise ManifestError(f"{where}: {both}; give one response file, or several as files")
+    if "file" in table:
+        names = {"": table["file"]}
+    else:
+        names = table["files"]
+        layouts = [keys for keys, _ in LAYOUTS.values() if keys != ("",)]
+        if not isinstance(names, dict) or set(names) not in [set(k) for k in layouts]:
+            given = ", ".join(names) if isinstance(names, dict) else repr(names)
+            raise ManifestError(
+                f"{where}: files has {given or 'no key'}; expected one file per drive input, "
+                "files = { u1 = ..., u2 = ... }, or per channel, "
+                "files = { y1_u1 = ..., y1_u2 = ..., y2_u1 = ..., y2_u2 = ... }"
+            )
+        names = {key: names[key] for keys in layouts if set(keys) == set(names) for key in keys}
+    files = []
+    for key, name in names.items():
+        label = f"files.{key}" if key else "file"
+        if not isinstance(name, str) or not name:
+            raise ManifestError(f"{where}: {label} is {name!r}; expected a file name")
+        file = path.parent / name
+        if not file.is_file():
+            what = "is not a file" if file.exists() else "does not exist"
+            raise ManifestError(f"{where}: response file {file} {what}")
+        files.append((key, file))
+    return tuple(files)
+
+
+def _column_map(
+    table: dict[str, Any], top: dict[str, Any], where: str, files: tuple[tuple[str, Path], ...]
+) -> ColumnMap | None:
+    """The column map an experiment's files are read with, or ``None`` (their own format)."""
+    own = table.get("columns", {})
+    if not isinstance(own, dict):
+        raise ManifestError(f"{where}: columns is {own!r}; expected a table ([experiment.columns])")
+    text = [f for _, f in files if f.suffix.lower() not in _OWN_FORMATS]
+    if len(text) < len(files):
+        if len(files) > 1 or own:
+            raise ManifestError(
+                f"{where}: a column map reads text files only; "
+                f"{', '.join(f.name for _, f in files if f not in text)} has its own format"
+            )
+        return None  # a .s2p, .mat or .nc file: the manifest's [columns] do not apply
+    if not top and not own:
+        if len(files) > 1:
+            raise ManifestError(
+                f"{where}: several files need a column map ([columns] or [experiment.columns]) "
+                "saying which columns each file holds"
+            )
+        return None
+    tables = {key: "experiment.columns" if key in own else "columns" for key in {**top, **own}}
+    columns = parse_column_map({**top, **own}, where, tables)
+    keys, entries = LAYOUTS[columns.layout]
+    if tuple(key for key, _ in files) != keys:
+        raise ManifestError(
+            f"{where}: the column map names the channel(s) {', '.join(entries)}, which is for "
+            f"{_LAYOUT_FILES[columns.layout]}; this experiment has "
+            f"{_LAYOUT_FILES[_layout_of(files)]}"
+        )
+    return columns
+
+
+_LAYOUT_FILES = {
+    "file": "one file holding the whole response (file = ...)",
+    "input": "one file per drive input (files = { u1 = ..., u2 = ... })",
+    "channel": "one file per channel (files = { y1_u1 = ..., ... })",
+}
+
+
+def _layout_of(files: tuple[tuple[str, Path], ...]) -> str:
+    """The layout (:data:`~sysid_core.data.columnmap.LAYOUTS`) of an experiment's files."""
+    keys = tuple(key for key, _ in files)
+    return next(name for name, (layout, _) in LAYOUTS.items() if layout == keys)
 
 
 def load_manifest(path: str | os.PathLike[str]) -> xr.Dataset:
@@ -222,7 +317,10 @@ def load_manifest(path: str | os.PathLike[str]) -> xr.Dataset:
     sweeps = []
     for exp in manifest.experiments:
         try:
-            sweeps.append(read_sweep(exp.file))
+            if exp.columns is None:
+                sweeps.append(read_sweep(exp.file))
+            else:
+                sweeps.append(read_columns(dict(exp.files), exp.columns))
         except FileFormatError as exc:
             raise FileFormatError(f"{manifest.path}, experiment {exp.index}: {exc}") from exc
     units = {str(s.attrs["units"]) for s in sweeps} - {""}
@@ -246,7 +344,8 @@ def load_manifest(path: str | os.PathLike[str]) -> xr.Dataset:
         return validate(ds)
     except DataError as exc:
         files = ", ".join(
-            f"{e.index} = {os.path.relpath(e.file, manifest.path.parent)}"
+            f"{e.index} = "
+            + " + ".join(os.path.relpath(f, manifest.path.parent) for _, f in e.files)
             for e in manifest.experiments
         )
         raise type(exc)(f"{manifest.path}: {exc} (experiments: {files})") from exc
@@ -274,106 +373,4 @@ def data_files(path: str | os.PathLike[str]) -> list[Path]:
     path = Path(path)
     if not _is_manifest(path):
         return [path]
-    return [path, *(e.file for e in read_manifest(path).experiments)]
-
-
-# ------------------------------------------------------------------------------------ export
-def _format(format: str) -> str:
-    fmt = str(format).lower().lstrip(".")
-    if fmt not in EXPORT_FORMATS:
-        raise FileFormatError(
-            f"unknown export format {format!r}; supported: {', '.join(EXPORT_FORMATS)}"
-        )
-    return fmt
-
-
-def export_files(ds: xr.Dataset, folder: str | os.PathLike[str], format: str = "csv") -> list[Path]:
-    """The files :func:`export_dataset` writes: ``exp0.<format>``, ... and the manifest last."""
-    fmt = _format(format)
-    folder = Path(folder)
-    names = [folder / f"exp{k}.{fmt}" for k in range(ds.sizes["experiment"])]
-    return [*names, folder / MANIFEST_NAME]
-
-
-def _toml_string(text: str) -> str:
-    """A TOML basic string."""
-    out = []
-    for ch in text:
-        if ch in '"\\':
-            out.append("\\" + ch)
-        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
-            out.append(f"\\u{ord(ch):04X}")
-        else:
-            out.append(ch)
-    return '"' + "".join(out) + '"'
-
-
-def _toml_float(value: float) -> str:
-    return repr(float(value))
-
-
-def export_dataset(ds: xr.Dataset, folder: str | os.PathLike[str], format: str = "csv") -> Path:
-    """Write a data set as one response file per experiment and a manifest; return the manifest.
-
-    ``load_manifest(export_dataset(ds, folder, format))`` gives back the data set's responses,
-    frequency grids, biases, electrodes, structure potential, device and response units: exactly
-    for every format (the Touchstone files are written with every digit). Other attributes are
-    not kept. Files are written atomically, the manifest last, over any files of the same names.
-
-    Parameters
-    ----------
-    ds : xarray.Dataset
-        A data set (:mod:`sysid_core.data.schema`); its channels are written in order as y1, y2 /
-        u1, u2.
-    folder : path-like
-        Created if needed.
-    format : {"csv", "s2p", "mat", "nc"}
-        The response files' format (``nc``: one-experiment data sets, biases included).
-    """
-    fmt = _format(format)
-    folder = Path(folder)
-    files = export_files(ds, folder, fmt)
-    bias = np.asarray(ds["bias"].values, dtype=float)
-    vg = float(ds.attrs.get("structure_potential", float("nan")))
-    if not np.isfinite(bias).all() or not math.isfinite(vg):
-        raise MissingBiasError("the data set's biases or structure_potential are not all finite")
-    electrodes = [str(e) for e in ds["electrode"].values]
-    device = str(ds.attrs.get("device", "unknown"))
-    units = str(ds.attrs.get("response_units", ""))
-    mask = measured_mask(ds)
-    f_all = np.asarray(ds["frequency"].values, dtype=float)
-    values = np.asarray(ds["response"].transpose(*("experiment", "frequency", "output", "input")))
-    lines = [
-        "# Measured experiments (docs/measured-data.md), written by sysid-toolkit.",
-        f"device = {_toml_string(device)}",
-        f"structure_potential_v = {_toml_float(vg)}",
-        f"electrodes = [{', '.join(_toml_string(e) for e in electrodes)}]",
-    ]
-    for k, target in enumerate(files[:-1]):
-        f, resp = f_all[mask[k]], values[k][mask[k]]
-        times = point_times(ds, k)
-        if fmt == "nc":
-            one = make_dataset(
-                [resp],
-                f,
-                [bias[k]],
-                electrodes,
-                vg,
-                device=device,
-                outputs=[str(o) for o in ds["output"].values],
-                inputs=[str(i) for i in ds["input"].values],
-                response_units=units,
-                times_s=[times],
-            )
-            save_dataset(one, target)
-        else:
-            write_sweep(target, make_sweep(f, resp, time_s=times), units)
-        biases = ", ".join(_toml_float(b) for b in bias[k])
-        lines += [
-            "",
-            "[[experiment]]",
-            f"bias_v = [{biases}]",
-            f"file = {_toml_string(target.name)}",
-        ]
-    text = "\n".join(lines) + "\n"
-    return atomic_write(files[-1], lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    return [path, *(f for e in read_manifest(path).experiments for _, f in e.files)]

@@ -1,4 +1,8 @@
-"""Response files in MATLAB ``.mat`` (see :mod:`sysid_core.data.sweepfiles`)."""
+"""Response files in MATLAB ``.mat`` (see :mod:`sysid_core.data.sweepfiles`).
+
+Versions 4 to 7 are read with ``scipy.io.loadmat``, v7.3 (HDF5) with h5py
+(:mod:`sysid_core.data.mat73`); both are checked alike. Files are written as v5 (``savemat``).
+"""
 
 from __future__ import annotations
 
@@ -8,6 +12,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from sysid_core.data.mat73 import is_mat73, load_mat73
 from sysid_core.data.sweep import (
     check_sweep,
     check_times,
@@ -18,6 +23,9 @@ from sysid_core.errors import (
 )
 
 __all__ = ["read_mat", "write_mat"]
+
+#: The variables a response file may hold (a v7.3 file's others are not read).
+_VARIABLES = ("frequency_hz", "response", "response_units", "time_s")
 
 
 # -------------------------------------------------------------------------------- MATLAB .mat
@@ -67,16 +75,21 @@ def read_mat(path: Path) -> xr.DataArray:
 
 
 def _load_mat(path: Path) -> dict[str, Any]:
-    """The variables of the ``.mat`` file at ``path`` (MATLAB v7 or older, not v7.3)."""
+    """The variables of the ``.mat`` file at ``path``: v4 to v7 with scipy, v7.3 with h5py."""
+    if is_mat73(path):
+        return load_mat73(path, _VARIABLES)
     from scipy.io import loadmat
 
     try:
         return loadmat(path, squeeze_me=False)
-    except NotImplementedError as exc:  # MATLAB v7.3 (HDF5)
-        raise FileFormatError(
-            f"{path}: a MATLAB v7.3 (HDF5) file; save it with save(..., '-v7') ({exc})"
-        ) from exc
     except Exception as exc:  # scipy raises ValueError, TypeError, MatReadError, ...
+        import h5py  # type: ignore[import-untyped]
+
+        if h5py.is_hdf5(path):
+            raise FileFormatError(
+                f"{path}: an HDF5 file without MATLAB's v7.3 header: not a MATLAB .mat file "
+                "(save it from MATLAB, or write a netCDF .nc file)"
+            ) from exc
         raise FileFormatError(f"{path}: not a MATLAB .mat file ({exc})") from exc
 
 

@@ -1,7 +1,7 @@
 """Response files (``sysid_core.data.sweepfiles``): each format read from files written by
 independent writers (the ``csv`` module, scikit-rf's ``write_touchstone``, ``scipy.io.savemat``,
-xarray), exact round trips through :func:`write_sweep`, and one-line errors naming file and
-line/variable.
+h5py as MATLAB writes v7.3, xarray), exact round trips through :func:`write_sweep`, and one-line
+errors naming file and line/variable (MATLAB v7.3: ``test_mat73.py``).
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 import skrf
 import xarray as xr
+from exports import write_mat73
 from scipy.io import savemat
 from sysid_cloverleaf import CloverleafGyro
 
@@ -274,15 +275,20 @@ def test_s2p_is_never_unpickled(tmp_path: Path) -> None:
 
 
 # --------------------------------------------------------------------------- errors: .mat
-def mat_case(tmp_path: Path, **variables: object) -> Path:
-    path = tmp_path / "bad.mat"
-    savemat(path, variables)
+def savemat_v5(path: Path, **variables: object) -> Path:
+    savemat(path, variables, oned_as="column")
     return path
 
 
-def test_mat_errors_name_file_and_variable(tmp_path: Path, sweep: xr.DataArray) -> None:
-    r = sweep.values
-    cases: list[tuple[dict[str, object], str]] = [
+#: The writers of .mat files: scipy (MATLAB v5) and h5py as MATLAB writes v7.3 (tests/exports.py).
+MAT_WRITERS = {"v5": savemat_v5, "v7.3": write_mat73}
+
+
+def mat_error_cases(r: np.ndarray) -> list[tuple[dict[str, object], str]]:
+    """Bad .mat files' variables and the error each must give (after the file's name)."""
+    bad = r.copy()
+    bad[7, 1, 1] = np.inf
+    return [
         ({"response": r}, r"no variable 'frequency_hz' \(found: response\)"),
         ({"frequency_hz": FREQS}, r"no variable 'response'"),
         ({"frequency_hz": FREQS, "response": r.real}, r"variable 'response': real values"),
@@ -295,16 +301,18 @@ def test_mat_errors_name_file_and_variable(tmp_path: Path, sweep: xr.DataArray) 
         ({"frequency_hz": FREQS + 1j, "response": r}, r"variable 'frequency_hz': complex"),
         ({"frequency_hz": FREQS, "response": r, "response_units": 3.0}, r"'response_units'"),
         ({"frequency_hz": "abc", "response": r}, r"variable 'frequency_hz'"),
+        ({"frequency_hz": FREQS, "response": bad}, r"variable 'response'\[7, 1, 1\]: .*finite"),
     ]
-    for variables, message in cases:
-        path = mat_case(tmp_path, **variables)
+
+
+@pytest.mark.parametrize("version", sorted(MAT_WRITERS))
+def test_mat_errors_name_file_and_variable(
+    tmp_path: Path, sweep: xr.DataArray, version: str
+) -> None:
+    for variables, message in mat_error_cases(sweep.values):
+        path = MAT_WRITERS[version](tmp_path / "bad.mat", **variables)
         with pytest.raises(FileFormatError, match=rf"^{re.escape(str(path))}[:,] .*{message}"):
             read_sweep(path)
-    bad = r.copy()
-    bad[7, 1, 1] = np.inf
-    path = mat_case(tmp_path, frequency_hz=FREQS, response=bad)
-    with pytest.raises(FileFormatError, match=r"variable 'response'\[7, 1, 1\]: .*finite"):
-        read_sweep(path)
     path.write_text("not a mat file at all")
     with pytest.raises(FileFormatError, match=r"not a MATLAB \.mat file"):
         read_sweep(path)
