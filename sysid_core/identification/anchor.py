@@ -28,17 +28,12 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
+from sysid_core.conic.program import SYM_BASIS, sym
 from sysid_core.data.schema import measured_mask, point_times
 from sysid_core.errors import DataError
 from sysid_core.model.fitted import FittedModel
 
 __all__ = ["Anchor", "anchor"]
-
-_BASIS = (
-    np.array([[1.0, 0.0], [0.0, 0.0]]),
-    np.array([[0.0, 1.0], [1.0, 0.0]]),
-    np.array([[0.0, 0.0], [0.0, 1.0]]),
-)
 
 
 @dataclass(frozen=True)
@@ -128,7 +123,7 @@ def anchor(model: FittedModel, sweeps: Sequence[xr.Dataset], *, rate: bool = Tru
         z = model.z(omega, bias)
         e0 = p - model.structure.product(psi, z)
         cols = np.zeros((omega.size, 2, 2, n_par), dtype=complex)
-        for b, basis in enumerate(_BASIS):
+        for b, basis in enumerate(SYM_BASIS):
             term = model.structure.product(psi, np.broadcast_to(basis, z.shape))
             cols[..., b] = term
             if with_rate:
@@ -148,9 +143,6 @@ def anchor(model: FittedModel, sweeps: Sequence[xr.Dataset], *, rate: bool = Tru
     scale = np.linalg.norm(a_all, axis=0)
     scale[scale == 0] = 1.0
     x = np.linalg.lstsq(a_all / scale, y_all, rcond=None)[0] / scale
-
-    def sym(v: np.ndarray) -> np.ndarray:
-        return np.array([[v[0], v[1]], [v[1], v[2]]])
 
     return Anchor(
         offset=sym(x[:3]),

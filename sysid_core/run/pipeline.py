@@ -39,7 +39,6 @@ from sysid_core.data.runfolder import RunFolder
 from sysid_core.device.measuring import GuardedDevice, check_bias
 from sysid_core.device.protocol import Device, ReportsProgress
 from sysid_core.errors import ConfigError
-from sysid_core.identification.drift import offset_drift
 from sysid_core.identification.objective import Progress
 from sysid_core.model.fitted import FittedModel
 from sysid_core.plugin.registry import Registry, get_registry
@@ -290,7 +289,7 @@ class TuningRun:
         """The model moved to the next verification's time (``drift = "track"``)."""
         assert self.tracker is not None
         now = self.tracker.now(model, ds, self.say, it)
-        seen = offset_drift(now)
+        seen = self.tracker.rates
         if seen is not None:
             self.drift_hz_per_h = seen.common_hz_per_h
             self.drift_split_hz_per_h = seen.split_hz_per_h

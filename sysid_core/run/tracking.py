@@ -15,7 +15,7 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.identification.anchor import anchor
-from sysid_core.identification.drift import offset_drift
+from sysid_core.identification.drift import OffsetDrift, offset_drift
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.verification import Verification
 
@@ -51,6 +51,8 @@ class Tracker:
     keep: int = 4
     windows: list[xr.Dataset] = field(default_factory=list)
     splits: list[float] = field(default_factory=list)
+    #: The rates the last :meth:`now` found (common and split), or None.
+    rates: OffsetDrift | None = None
 
     def learned(self, ver: Verification) -> None:
         """Keep the verification's last window if it verified a split at known times."""
@@ -88,9 +90,10 @@ class Tracker:
         if not self.windows:
             return model
         found = anchor(model, self.anchoring())
-        latest = max(found.t_ref, float(_times(ds).max()) if _times(ds).size else found.t_ref)
-        moved = found.model_at(model, latest + self.ahead_s())
-        seen = offset_drift(moved)
+        stamps = _times(ds)
+        at = max(found.t_ref, float(stamps.max()) if stamps.size else found.t_ref) + self.ahead_s()
+        moved = found.model_at(model, at)
+        self.rates = seen = offset_drift(moved)
         rates = (
             ""
             if seen is None
@@ -99,6 +102,6 @@ class Tracker:
         )
         say(
             f"iteration {it}: the model anchored on {found.sweeps} verified window(s), "
-            f"{latest + self.ahead_s() - found.t_ref:.0f} s ahead{rates}"
+            f"{at - found.t_ref:.0f} s ahead{rates}"
         )
         return moved
