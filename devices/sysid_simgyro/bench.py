@@ -14,6 +14,11 @@ drift measures exactly what the frozen bench measures):
   ``split_tempco_ppm_per_k`` of the frequency per kelvin (a differential coefficient).
 * **Dielectric charging**: each electrode's effective bias drifts by ``charging_v_per_h``
   volts per hour (one value for all electrodes, or one per electrode).
+* **Several tones per acquisition** (``tones``, default 1): a lock-in with several
+  demodulators or a multisine measures up to ``tones`` of the requested frequencies in one
+  acquisition (consecutive ones in the order asked). The drive's amplitude is shared among
+  them, so each tone's noise is ``√k`` times that of a single tone, ``k`` the tones of its
+  acquisition.
 * **Analyzer gain and phase wander**: every acquisition's response is multiplied by
   ``(1 + g) e^{jφ}``, ``g`` and ``φ`` drawn per sweep with standard deviations ``gain_wander``
   (relative) and ``phase_wander_deg``.
@@ -62,6 +67,7 @@ class BenchSettings:
     """How the simulated bench behaves in time (see the module); the defaults are frozen."""
 
     clock: bool = False
+    tones: int = 1
     settle_tau: float = 3.0
     dwell_q_over_omega: float = 5.0
     temperature_ramp_k_per_h: float = 0.0
@@ -100,6 +106,13 @@ class BenchSettings:
                     raise ConfigError(
                         f"[device.bench] clock of device {device!r} must be true or false, "
                         f"got {value!r}"
+                    )
+                values[key] = value
+            elif key == "tones":
+                if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                    raise ConfigError(
+                        f"[device.bench] tones of device {device!r} must be an integer >= 1 "
+                        f"(frequencies per acquisition), got {value!r}"
                     )
                 values[key] = value
             elif key == "seed":

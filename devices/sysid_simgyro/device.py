@@ -143,6 +143,8 @@ class SimulatedGyro:
         the bench clock: ``tones``, ``settle_s`` and ``dwell_s``."""
         self.bench_settings = settings
         self.bench: Bench | None = None
+        #: Frequencies one acquisition measures (the device protocol's ``tones``).
+        self.tones = settings.tones
         if not settings.clock:
             return
         _, damped, q = modal_analysis(
@@ -152,9 +154,8 @@ class SimulatedGyro:
         slowest = int(np.argmax(np.asarray(q) / omega))
         q_over_omega = float(q[slowest] / omega[slowest])
         self.bench = Bench(settings, 2.0 * q_over_omega, q_over_omega, len(self.electrodes))
-        #: Frequencies one acquisition measures; seconds to settle after a bias change and
-        #: per acquisition (the bench clock of the device protocol).
-        self.tones = 1
+        #: Seconds to settle after a bias change and per acquisition (the bench clock of the
+        #: device protocol).
         self.settle_s = self.bench.settle_s
         self.dwell_s = self.bench.dwell_s
 
@@ -305,7 +306,8 @@ class SimulatedGyro:
         if self.bench is not None:  # the analyzer's gain and phase: on all it measures
             response = response * self.bench.sweep_factor()
         if self.noise_std > 0:
-            scale = self.noise_std / np.sqrt(2.0)
+            scale = self.noise_std / np.sqrt(2.0) * np.sqrt(self.tones_shared(f.size))
+            scale = scale[:, None, None]
             response = response + scale * (
                 self._rng.standard_normal(response.shape)
                 + 1j * self._rng.standard_normal(response.shape)
@@ -327,6 +329,14 @@ class SimulatedGyro:
                 "applied_bias": applied.tolist(),
             },
         )
+
+    def tones_shared(self, n_points: int) -> np.ndarray:
+        """How many tones share each point's acquisition (``n_points`` frequencies measured
+        :attr:`tones` at a time, consecutively): each tone's noise is ``√k`` times a single
+        tone's."""
+        per = max(int(self.tones), 1)
+        first = (np.arange(n_points) // per) * per
+        return np.minimum(per, n_points - first).astype(float)
 
     # --------------------------------------------------------- ground truth
     def true_modal_analysis(

@@ -1,0 +1,172 @@
+"""Time to a tuned gyro by the bench clock: the table of docs/bench-time.md ("Tuning by the clock").
+
+    python examples/clock_population.py --gyro cloverleaf --tones 1 --starts 12
+    python examples/clock_population.py --gyro random --tones 8 --seeds 201-224
+
+Each run tunes a simulated gyro on a bench with a clock (settling 3 τ after each bias change,
+5 Q/ω per acquisition, ``--tones`` frequencies per acquisition, each tone with √tones more
+noise because the drive is shared) and the drift of a good lab (0.2 K/h ramp, 0.05 K/√h walk).
+``cloverleaf``: the simulated cloverleaf from ``--starts`` random starts in ±9 V on B1 and B2
+(start k uses seed k); ``random``: one random gyro per seed, from 0 V, first step 3 V. Degenerate
+modes with B1 and B2, acceptance 1 mHz, up to 4 iterations.
+
+After every measurement a recorder reads the TRUE split at that bias on the clock (the run never
+sees it). The time to 1 mHz is the clock at the end of the first verification of an answer
+whose true split was then at most 1 mHz (runs that never get there count with their whole bench
+time). One JSON line per run goes to ``<out>/runs.jsonl``; then the table row.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sysid_core import tune
+from sysid_core.errors import SysidError
+from sysid_core.plugin.registry import get_registry
+
+GOOD_LAB = {"temperature_ramp_k_per_h": 0.2, "temperature_walk_k_per_sqrt_h": 0.05}
+ACCEPTANCE = 0.001
+TARGET_HZ = 0.001
+
+
+class Recorder:
+    """A simulated device that notes, after each measurement, the bias, the clock and the TRUE
+    split then; everything else is the device's own."""
+
+    def __init__(self, device: Any) -> None:
+        self._device = device
+        self.log: list[tuple[list[float], float, float]] = []
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._device, name)
+
+    def measure(self, bias: Any, frequencies_hz: Any) -> Any:
+        """The device's measurement, noted."""
+        da = self._device.measure(bias, frequencies_hz)
+        split = float(self._device.true_split_hz(bias))
+        self.log.append(([float(b) for b in bias], float(self._device.time_s), split))
+        return da
+
+
+def seeds(text: str) -> list[int]:
+    """``201-224`` or ``1,5,9``."""
+    if "-" in text:
+        lo, hi = text.split("-")
+        return list(range(int(lo), int(hi) + 1))
+    return [int(s) for s in text.split(",")]
+
+
+def _config(gyro: str, device: Any, options: dict, experiment: dict, start: list[float]) -> dict:
+    tuning = {
+        "criterion": "degenerate",
+        "electrodes": ["B1", "B2"],
+        "start_bias": start,
+        "acceptance_hz": ACCEPTANCE,
+        "max_iterations": 4,
+    }
+    if gyro == "random":
+        experiment = {"bias_step": 3.0, **experiment}
+    return {
+        "device": {"name": device.name, **{k: v for k, v in options.items() if k != "bench"}},
+        "tuning": tuning,
+        **({"experiment": experiment} if experiment else {}),
+    }
+
+
+def one(gyro: str, seed: int, tones: int, out: Path, experiment: dict) -> dict:
+    """Tune one gyro; its record."""
+    bench = {"clock": True, "seed": seed, "tones": tones, **GOOD_LAB}
+    options: dict = {"seed": seed, "bench": bench}
+    name = "cloverleaf" if gyro == "cloverleaf" else "random-gyro"
+    device = get_registry().device(name, **options)
+    if gyro == "cloverleaf":
+        rng = np.random.default_rng(seed)
+        start = [float(v) for v in np.round(rng.uniform(-9, 9, 2), 3)] + [0.0]
+    else:
+        start = [0.0] * len(device.electrodes)
+    recorder = Recorder(device)
+    config = _config(gyro, device, options, experiment, start)
+    folder = out / f"run{seed}"
+    shutil.rmtree(folder, ignore_errors=True)
+    try:
+        result = tune(config, folder, plots=False, device=recorder)
+    except SysidError as exc:
+        return {"seed": seed, "error": str(exc)}
+    answers = [r.verified_bias for r in result.history]
+    to_target = None
+    for bias, t, split in recorder.log:
+        if split <= TARGET_HZ and any(np.allclose(bias, a) for a in answers):
+            to_target = t
+            break
+    clock = float(device.time_s)
+    return {
+        "seed": seed,
+        "start": start,
+        "true_end_split_hz": float(device.true_split_hz(result.bias)),
+        "measured_split_hz": result.split_hz,
+        "converged": result.converged,
+        "iterations": result.iterations,
+        "points": result.points,
+        "measurements": len(recorder.log),
+        "clock_s": clock,
+        "time_to_target_s": to_target,
+        "reported_bench_time_s": result.bench_time_s,
+        "bench_time_source": result.bench_time_source,
+    }
+
+
+def row(label: str, records: list[dict]) -> str:
+    """The table row."""
+    ok = [r for r in records if "error" not in r]
+    minutes = np.array(
+        [(r["time_to_target_s"] or r["clock_s"]) / 60 for r in ok] or [np.nan]
+    )
+    reached = sum(r["time_to_target_s"] is not None for r in ok)
+    end = np.array([r["true_end_split_hz"] * 1e3 for r in ok] or [np.nan])
+    points = np.median([r["points"] for r in ok]) if ok else np.nan
+    p50, p90 = np.percentile(minutes, [50, 90])
+    e50, e90 = np.percentile(end, [50, 90])
+    return (
+        f"| {label} | {reached}/{len(records)} | {p50:.1f} / {p90:.1f} / {minutes.max():.1f} | "
+        f"{points:.0f} | {e50:.3f} / {e90:.3f} / {end.max():.3f} | "
+        f"{sum(e <= TARGET_HZ * 1e3 for e in end)}/{len(records)} | {len(records) - len(ok)} |"
+    )
+
+
+def main() -> None:
+    """Parse the arguments, tune every gyro, print the row."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--gyro", choices=["cloverleaf", "random"], default="cloverleaf")
+    parser.add_argument("--tones", type=int, default=1)
+    parser.add_argument("--starts", type=int, default=12, help="cloverleaf: starts 1..N")
+    parser.add_argument("--seeds", default="201-224", help="random: gyro seeds")
+    parser.add_argument("--experiment", default="{}", help="an [experiment] table as JSON")
+    parser.add_argument("--label", default=None)
+    parser.add_argument("--out", type=Path, default=Path("runs/clock-population"))
+    args = parser.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+    experiment = json.loads(args.experiment)
+    which = list(range(1, args.starts + 1)) if args.gyro == "cloverleaf" else seeds(args.seeds)
+    records = []
+    with (args.out / "runs.jsonl").open("w") as log:
+        for seed in which:
+            records.append(one(args.gyro, seed, args.tones, args.out, experiment))
+            log.write(json.dumps(records[-1]) + "\n")
+            log.flush()
+    label = args.label or f"{args.gyro}, {args.tones} tone(s)"
+    print(
+        "| run | reached 1 mHz | minutes to 1 mHz: median / 90 % / max | points (median) | "
+        "true end split median / 90 % / max (mHz) | end within 1 mHz | errors |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    print(row(label, records))
+
+
+if __name__ == "__main__":
+    main()
