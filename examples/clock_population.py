@@ -124,9 +124,7 @@ def one(gyro: str, seed: int, tones: int, out: Path, experiment: dict) -> dict:
 def row(label: str, records: list[dict]) -> str:
     """The table row."""
     ok = [r for r in records if "error" not in r]
-    minutes = np.array(
-        [(r["time_to_target_s"] or r["clock_s"]) / 60 for r in ok] or [np.nan]
-    )
+    minutes = np.array([(r["time_to_target_s"] or r["clock_s"]) / 60 for r in ok] or [np.nan])
     reached = sum(r["time_to_target_s"] is not None for r in ok)
     end = np.array([r["true_end_split_hz"] * 1e3 for r in ok] or [np.nan])
     points = np.median([r["points"] for r in ok]) if ok else np.nan
