@@ -8,7 +8,9 @@ Each run tunes a simulated gyro on a bench with a clock (settling 3 τ after eac
 noise because the drive is shared) and the drift of a good lab (0.2 K/h ramp, 0.05 K/√h walk).
 ``cloverleaf``: the simulated cloverleaf from ``--starts`` random starts in ±9 V on B1 and B2
 (start k uses seed k); ``random``: one random gyro per seed, from 0 V, first step 3 V. Degenerate
-modes with B1 and B2, acceptance 1 mHz, up to 4 iterations.
+modes with B1 and B2, acceptance 1 mHz, up to 4 iterations. With ``--from-model``, each run
+starts from the last model of a previous run on the same gyro (from 0 V, other noise and
+drift; its own time is not counted).
 
 After every measurement a recorder reads the TRUE split at that bias on the clock (the run never
 sees it). The time to 1 mHz is the clock at the end of the first verification of an answer
@@ -79,12 +81,29 @@ def _config(gyro: str, device: Any, options: dict, experiment: dict, start: list
     }
 
 
-def one(gyro: str, seed: int, tones: int, out: Path, experiment: dict) -> dict:
-    """Tune one gyro; its record."""
-    bench = {"clock": True, "seed": seed, "tones": tones, **GOOD_LAB}
+def _device(gyro: str, seed: int, tones: int, bench_seed: int) -> tuple[Any, dict]:
+    bench = {"clock": True, "seed": bench_seed, "tones": tones, **GOOD_LAB}
     options: dict = {"seed": seed, "bench": bench}
     name = "cloverleaf" if gyro == "cloverleaf" else "random-gyro"
-    device = get_registry().device(name, **options)
+    return get_registry().device(name, **options), options
+
+
+def prior_model(gyro: str, seed: int, tones: int, out: Path, experiment: dict) -> Path:
+    """A previous run on the same gyro (other noise, other drift, from 0 V): its last model."""
+    device, options = _device(gyro, seed, tones, seed + 1000)
+    config = _config(gyro, device, options, experiment, [0.0] * len(device.electrodes))
+    folder = out / f"prior{seed}"
+    shutil.rmtree(folder, ignore_errors=True)
+    result = tune(config, folder, plots=False, device=device)
+    return folder / f"iter{result.iterations:02d}" / "model.nc"
+
+
+def one(
+    gyro: str, seed: int, tones: int, out: Path, experiment: dict, from_model: bool = False
+) -> dict:
+    """Tune one gyro; its record."""
+    prior = prior_model(gyro, seed, tones, out, experiment) if from_model else None
+    device, options = _device(gyro, seed, tones, seed)
     if gyro == "cloverleaf":
         rng = np.random.default_rng(seed)
         start = [float(v) for v in np.round(rng.uniform(-9, 9, 2), 3)] + [0.0]
@@ -95,7 +114,7 @@ def one(gyro: str, seed: int, tones: int, out: Path, experiment: dict) -> dict:
     folder = out / f"run{seed}"
     shutil.rmtree(folder, ignore_errors=True)
     try:
-        result = tune(config, folder, plots=False, device=recorder)
+        result = tune(config, folder, plots=False, device=recorder, from_model=prior)
     except SysidError as exc:
         return {"seed": seed, "error": str(exc)}
     answers = [r.verified_bias for r in result.history]
@@ -145,6 +164,9 @@ def main() -> None:
     parser.add_argument("--starts", type=int, default=12, help="cloverleaf: starts 1..N")
     parser.add_argument("--seeds", default="201-224", help="random: gyro seeds")
     parser.add_argument("--experiment", default="{}", help="an [experiment] table as JSON")
+    parser.add_argument(
+        "--from-model", action="store_true", help="start from a previous run's model of the gyro"
+    )
     parser.add_argument("--label", default=None)
     parser.add_argument("--out", type=Path, default=Path("runs/clock-population"))
     args = parser.parse_args()
@@ -154,10 +176,12 @@ def main() -> None:
     records = []
     with (args.out / "runs.jsonl").open("w") as log:
         for seed in which:
-            records.append(one(args.gyro, seed, args.tones, args.out, experiment))
+            records.append(one(args.gyro, seed, args.tones, args.out, experiment, args.from_model))
             log.write(json.dumps(records[-1]) + "\n")
             log.flush()
-    label = args.label or f"{args.gyro}, {args.tones} tone(s)"
+    label = args.label or (
+        f"{args.gyro}, {args.tones} tone(s){', from a model' if args.from_model else ''}"
+    )
     print(
         "| run | reached 1 mHz | minutes to 1 mHz: median / 90 % / max | points (median) | "
         "true end split median / 90 % / max (mHz) | end within 1 mHz | errors |"

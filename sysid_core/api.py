@@ -68,6 +68,7 @@ def tune(
     plot_format: str = "png",
     device: Device | None = None,
     registry: Registry | None = None,
+    from_model: str | os.PathLike[str] | FittedModel | None = None,
 ) -> RunSummary:
     """Run the tuning loop of ``config`` into the folder ``out``; return its summary.
 
@@ -90,6 +91,10 @@ def tune(
         Use this device object instead of the configuration's ``[device]``.
     registry : Registry, optional
         Where plugins are looked up (default: the installed ones).
+    from_model : path or FittedModel, optional
+        A previous model of the same gyro (a ``model.nc`` of an earlier run): the run skips
+        the locating sweep and the design while that model's answers, anchored on the latest
+        sweeps, bring the split down (``docs/bench-time.md``).
 
     Returns
     -------
@@ -123,6 +128,11 @@ def tune(
         registry=registry,
         plots=plots,
         plot_format=plot_format,
+        from_model=(
+            load_model(from_model, registry)
+            if isinstance(from_model, (str, os.PathLike))
+            else from_model
+        ),
     )
     return run.run()
 

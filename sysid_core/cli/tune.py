@@ -25,17 +25,26 @@ def tune_cmd(
     plot_format: Annotated[
         str, typer.Option("--plot-format", help="Plots as png (default), pdf or svg.")
     ] = "png",
+    from_model: Annotated[
+        Path | None,
+        typer.Option(
+            "--from-model",
+            help="A previous model of this gyro (model.nc): skip the locating sweep and design.",
+        ),
+    ] = None,
 ) -> None:
     """Tune a gyro: identify, compute the biases, verify, iterate (paper Sec. II-D).
 
     Exits 0 only when the run converged (a verified split under the acceptance and every goal
     of the criterion met); 1 when it did not, with every result saved in --out.
     """
+    from sysid_core.api import load_model
     from sysid_core.errors import NotConvergedError
     from sysid_core.run.config import load_config
     from sysid_core.run.pipeline import TuningRun
 
     cfg = load_config(config)
+    prior = None if from_model is None else load_model(from_model)
     target = out_dir or Path("runs") / config.stem
     resume_cmd = f"sysid tune {shlex.quote(str(config))} --out {shlex.quote(str(target))} --resume"
     with err.status("starting ...") as status:
@@ -52,6 +61,7 @@ def tune_cmd(
             progress=progress,
             plots=not no_plots,
             plot_format=plot_format,
+            from_model=prior,
         )
         try:
             summary = run.run()

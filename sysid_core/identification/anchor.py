@@ -75,7 +75,13 @@ class Anchor:
         return dataclasses.replace(model, K0=np.asarray(model.K0) + dk, meta=meta)
 
 
-def anchor(model: FittedModel, sweeps: Sequence[xr.Dataset], *, rate: bool = True) -> Anchor:
+def anchor(
+    model: FittedModel,
+    sweeps: Sequence[xr.Dataset],
+    *,
+    rate: bool = True,
+    untimed: bool = False,
+) -> Anchor:
     """Fit :class:`Anchor` to ``sweeps`` (time-stamped, each at one bias) with ``model``'s law.
 
     Parameters
@@ -86,11 +92,14 @@ def anchor(model: FittedModel, sweeps: Sequence[xr.Dataset], *, rate: bool = Tru
         The verification sweeps, oldest first; every point with a time stamp.
     rate : bool
         Fit the rate too when the sweeps are at two times or more.
+    untimed : bool
+        Accept sweeps without time stamps (every point then counts as time 0): an offset
+        only, no rate (a model brought to a gyro measured without a clock).
 
     Raises
     ------
     DataError
-        With no sweep, or a sweep without a time stamp at every point.
+        With no sweep, or a sweep without a time stamp at every point (unless ``untimed``).
     """
     if not sweeps:
         raise DataError("no sweep to anchor the model on: verify a bias first")
@@ -100,6 +109,9 @@ def anchor(model: FittedModel, sweeps: Sequence[xr.Dataset], *, rate: bool = Tru
         sweep = sweep.sel(electrode=list(model.electrodes))
         for k in range(sweep.sizes["experiment"]):
             t = point_times(sweep, k)
+            if t is None and untimed:
+                t = np.zeros(int(measured_mask(sweep)[k].sum()))
+                rate = False
             if t is None:
                 raise DataError(
                     f"anchoring sweep {j} has no time stamp at every point: the gyro now needs "

@@ -12,7 +12,7 @@ from sysid_core.data.runfolder import RunFolder
 from sysid_core.data.schema import experiment_from_measurement, point_times
 from sysid_core.device.measuring import GuardedDevice
 from sysid_core.errors import DeviceError
-from sysid_core.run.benchtime import points_per_frequency
+from sysid_core.run.benchtime import acquisitions, points_per_frequency
 
 __all__ = ["Bench"]
 
@@ -36,6 +36,8 @@ class Bench:
         Receives one-line progress messages.
     owns_device : bool
         The run built the device (then :meth:`close` closes it).
+    tones : int
+        Frequencies one acquisition measures (:func:`sysid_core.run.benchtime.tones`).
     """
 
     def __init__(
@@ -47,6 +49,7 @@ class Bench:
         name: str,
         say: Callable[[str], None],
         owns_device: bool,
+        tones: int = 1,
     ) -> None:
         self.device = device
         self.folder = folder
@@ -55,9 +58,14 @@ class Bench:
         self.name = name
         self.say = say
         self.owns_device = owns_device
-        #: Measurements made or read so far, and their frequency points.
+        self.tones = max(int(tones), 1)
+        #: Measurements made or read so far, their frequency points, their acquisitions
+        #: (``tones`` points each) and the bias changes before them.
         self.measurements = 0
         self.points = 0
+        self.acquisitions = 0
+        self.bias_changes = 0
+        self._last_bias: np.ndarray | None = None
         #: The earliest and latest time stamps seen (the device's clock), and how many
         #: measurements came without them.
         self.first_s: float | None = None
@@ -81,7 +89,12 @@ class Bench:
         if was_read:
             self.say(f"read {path.relative_to(self.folder.path)} (measured earlier)")
         self.measurements += 1
-        self.points += int(freqs.size) * points_per_frequency(self.device.device)
+        per = points_per_frequency(self.device.device)
+        self.points += int(freqs.size) * per
+        self.acquisitions += acquisitions(int(freqs.size), self.tones) * per
+        if self._last_bias is None or not np.array_equal(self._last_bias, bias):
+            self.bias_changes += 1
+        self._last_bias = np.array(bias, dtype=float)
         times = point_times(ds, 0)
         if times is None or times.size == 0:
             self.untimed += 1

@@ -2,23 +2,38 @@
 
 On a real bench the fit takes milliseconds and the measurement takes hours: a stepped-sine
 analyzer waits at every frequency point for the response to settle, a few time constants
-``2Q/ω`` of a high-Q mode. A run counts its ``points`` (frequency points of every sweep, times
-the device's ``points_per_frequency`` when it measures its inputs one after the other) and
-reports ``bench_time_s = points × dwell_s``. The dwell per point is, in this order:
+``2Q/ω`` of a high-Q mode, and the gyro needs a few more after every bias change. A run counts
+its ``points`` (frequency points of every sweep, times the device's ``points_per_frequency``
+when it measures its inputs or outputs one after the other), its ``acquisitions`` (each
+measures up to ``tones`` frequencies at once: a lock-in with several demodulators, a
+multisine) and its bias changes, and estimates ``bench_time_s = acquisitions × dwell_s +
+bias changes × settle_s``. Each figure comes from, in this order:
 
-* the device's own figure, an attribute ``dwell_s`` (seconds per point);
-* the configuration's ``[experiment] dwell_s``;
-* estimated from the data: ``5 Q/ω`` of the sharpest mode of the last fitted model (2.5 time
-  constants; 8.1 s for Q = 45 000 at 4.4 kHz).
+* the device's own attribute (``dwell_s`` seconds per acquisition, ``tones``, ``settle_s``);
+* the configuration's ``[experiment] dwell_s``, ``tones``, ``settle_s``;
+* estimated from the data: the dwell ``5 Q/ω`` of the sharpest mode of the last fitted model
+  (2.5 time constants; 8.1 s for Q = 45 000 at 4.4 kHz); one tone; no settling time.
+
+When every measurement carries time stamps the device's clock is the truth instead
+(:mod:`sysid_core.run.summary`).
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from sysid_core.model.fitted import FittedModel
 
-__all__ = ["DWELL_TIME_CONSTANTS", "dwell", "points_per_frequency"]
+__all__ = [
+    "DWELL_TIME_CONSTANTS",
+    "acquisitions",
+    "dwell",
+    "points_per_frequency",
+    "settle",
+    "tones",
+]
 
 #: The estimated dwell is this many ``Q/ω`` (2.5 time constants ``2Q/ω``).
 DWELL_TIME_CONSTANTS = 5.0
@@ -34,6 +49,38 @@ def points_per_frequency(device: object) -> int:
     return value if isinstance(value, int) and value >= 1 else 1
 
 
+def tones(device: object, cfg_tones: int | None = None) -> int:
+    """How many frequencies one acquisition of the device measures (default 1).
+
+    The device's ``tones`` (the bench clock's acquisition capability), else the configuration's
+    ``[experiment] tones``, else 1.
+    """
+    value = getattr(device, "tones", None)
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value >= 1:
+        return int(value)
+    return int(cfg_tones) if cfg_tones is not None and cfg_tones >= 1 else 1
+
+
+def acquisitions(n_frequencies: int, tones: int) -> int:
+    """Acquisitions of one sweep of ``n_frequencies``, ``tones`` at a time."""
+    return -(-int(n_frequencies) // max(int(tones), 1))
+
+
+def settle(device: object, cfg_settle: float | None = None) -> float | None:
+    """Seconds the gyro needs after a bias change (None: not counted).
+
+    The device's ``settle_s``, else the configuration's ``[experiment] settle_s``.
+    """
+    own = getattr(device, "settle_s", None)
+    try:
+        value = float(own) if own is not None else None
+    except (TypeError, ValueError):
+        value = None
+    if value is not None and math.isfinite(value) and value >= 0:
+        return value
+    return cfg_settle
+
+
 def _positive(value: object) -> float | None:
     try:
         x = float(value)  # type: ignore[arg-type]
@@ -45,7 +92,7 @@ def _positive(value: object) -> float | None:
 def dwell(
     device: object, cfg_dwell: float | None, model: FittedModel | None
 ) -> tuple[float | None, str | None]:
-    """The dwell per point (seconds) and where it comes from.
+    """The dwell per acquisition (seconds) and where it comes from.
 
     The source is ``"device"``, ``"config"`` or ``"estimated 5 Q/ω"``; ``(None, None)`` if
     nothing says (no model to estimate from).

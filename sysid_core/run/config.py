@@ -190,6 +190,8 @@ class ExperimentConfig(_Strict):
     design: Literal["one-sided", "two-sided"] | None = None
     protocol: Literal["lean", "full"] = "lean"
     dwell_s: float | None = Field(None, gt=0)
+    tones: int | None = Field(None, ge=1, le=1024)
+    settle_s: float | None = Field(None, ge=0)
     refine_span_hz: float = Field(6.0, ge=0)
     refine_resolution_hz: float = Field(0.05, gt=0)
     verify_span_hz: float = Field(1.0, gt=0)

@@ -45,6 +45,7 @@ __all__ = [
     "mode_grid",
     "predicted_uncertainty",
     "scout_grid",
+    "tone_budget",
 ]
 
 #: Half-width of a mode's grid, in bandwidths, when its frequency is known exactly.
@@ -53,6 +54,9 @@ CORE_BANDWIDTHS = 2.0
 POINTS_PER_BANDWIDTH = 2.0
 #: At most ``2 * MAX_HALF_POINTS + 1`` points per mode: an uncertain mode gets a coarser step.
 MAX_HALF_POINTS = 3
+#: A grid resolves a mode when its step there is at most this many bandwidths (the evidence's
+#: rule, :mod:`sysid_core.run.evidence`, with a margin).
+RESOLVED_STEP = 0.9
 #: Far points of a mode grid (half on each side), for the slowly varying terms.
 ANCHORS = 4
 #: A model's predicted move of the modes is trusted to this fraction of the move.
@@ -158,7 +162,25 @@ def anchors(f: np.ndarray, bw: np.ndarray, plan: SweepPlan) -> np.ndarray:
     return np.clip(np.concatenate(points), *plan.band_hz)
 
 
-def mode_grid(guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
+def _mode_points(
+    guess: ModeGuess, plan: SweepPlan, points_per_bw: float, max_half: int
+) -> np.ndarray:
+    """Around each mode ``±h`` at the step ``max(bw / points_per_bw, h / max_half)``.
+
+    Then the anchors; everything inside the band, near-duplicates merged.
+    """
+    f, bw, s = guess.frequencies_hz, guess.bandwidth_hz, guess.uncertainty_hz
+    half = CORE_BANDWIDTHS * bw + 2.0 * s
+    parts = []
+    for fi, bi, hi in zip(f, bw, half, strict=True):
+        step = max(bi / points_per_bw, hi / max_half)
+        k = math.ceil(hi / step - 1e-9)
+        parts.append(fi + step * np.arange(-k, k + 1))
+    points = _clip(np.concatenate([*parts, anchors(f, bw, plan)]), plan.band_hz)
+    return _merge(points, 1e-3 * float(bw.min()))
+
+
+def mode_grid(guess: ModeGuess, plan: SweepPlan, resolve: bool = False) -> np.ndarray:
     """The points of a sweep around two modes whose frequencies are (roughly) known.
 
     Around each mode ``±h`` with ``h = CORE_BANDWIDTHS·bw + 2σ``, at a step of
@@ -166,24 +188,61 @@ def mode_grid(guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
     :data:`ANCHORS` far points of :func:`anchors`. Everything inside the plan's band; never
     fewer than :data:`~sysid_core.run.sweeps.MIN_POINTS` points (the step is refined until there
     are).
+
+    With a device that measures several tones per acquisition (``plan.tones > 1``) the grid
+    is fitted to whole acquisitions: when a few points (at most ``ANCHORS / 2``) would spill
+    into one more acquisition, as many of the nearer anchors are dropped; and with ``resolve``
+    (a verification, which must resolve the modes) an uncertain mode's coarse step is refined
+    to :data:`RESOLVED_STEP` bandwidths when that costs at most one acquisition more
+    (:func:`tone_budget`): one grid then does what a coarse sweep and a fine one would.
     """
-    band = plan.band_hz
+    points_per_bw = POINTS_PER_BANDWIDTH
+    points = np.linspace(*plan.band_hz, MIN_POINTS)
+    for _ in range(6):
+        candidate = _mode_points(guess, plan, points_per_bw, MAX_HALF_POINTS)
+        if candidate.size >= MIN_POINTS:
+            points = candidate
+            break
+        points_per_bw *= 2
+    else:
+        return points
+    if plan.tones <= 1:
+        return points
+    bw, s = guess.bandwidth_hz, guess.uncertainty_hz
+    half = CORE_BANDWIDTHS * bw + 2.0 * s
+    step = np.maximum(bw / points_per_bw, half / MAX_HALF_POINTS)
+    if resolve and np.any(step > RESOLVED_STEP * bw):
+        # too coarse to resolve the modes: a finer grid if one more acquisition pays for it
+        needed = math.ceil(float(np.max(half / (RESOLVED_STEP * bw))) - 1e-9)
+        finer = _mode_points(guess, plan, points_per_bw, needed)
+        if finer.size <= tone_budget(points.size, plan.tones, extra=1):
+            return finer
+        return points
+    spill = points.size % plan.tones
+    if points.size > plan.tones and 0 < spill <= ANCHORS // 2:
+        # a few points spill into one more acquisition: drop that many of the nearer anchors
+        near = _nearer_anchors(points, guess, plan)[:spill]
+        points = np.setdiff1d(points, near)
+    return points
+
+
+def _nearer_anchors(points: np.ndarray, guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
+    """The anchors of ``points`` (those outside the modes' cores), nearest to a mode first."""
     f, bw, s = guess.frequencies_hz, guess.bandwidth_hz, guess.uncertainty_hz
     half = CORE_BANDWIDTHS * bw + 2.0 * s
-    points_per_bw = POINTS_PER_BANDWIDTH
-    for _ in range(6):
-        parts = []
-        for fi, bi, hi in zip(f, bw, half, strict=True):
-            step = max(bi / points_per_bw, hi / MAX_HALF_POINTS)
-            k = math.ceil(hi / step - 1e-9)
-            parts.append(fi + step * np.arange(-k, k + 1))
-        core = np.concatenate(parts)
-        points = _clip(np.concatenate([core, anchors(f, bw, plan)]), band)
-        points = _merge(points, 1e-3 * float(bw.min()))
-        if points.size >= MIN_POINTS:
-            return points
-        points_per_bw *= 2
-    return np.linspace(*band, MIN_POINTS)
+    distance = np.min(np.abs(points[:, None] - f[None, :]) - half[None, :], axis=1)
+    outside = distance > 1e-9
+    order = np.argsort(distance[outside])
+    return points[outside][order]
+
+
+def tone_budget(n_points: int, tones: int, extra: int = 0) -> int:
+    """The points ``n_points`` take in whole acquisitions of ``tones``, plus ``extra`` more.
+
+    What a sweep may use at the same (or a little more) bench time.
+    """
+    tones = max(int(tones), 1)
+    return (-(-int(n_points) // tones) + int(extra)) * tones
 
 
 def scout_grid(guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
@@ -233,9 +292,12 @@ def locate_plan(plan: SweepPlan, points: int = LOCATE_POINTS) -> SweepPlan:
     A lean run sweeps the whole band only to locate the modes (the mode grids measure them),
     so its step is ``resolution_hz`` or ``band / (points - 1)``, whichever is coarser; a sweep
     that does not locate them is followed by one four times as dense, then by the band at
-    ``resolution_hz`` (each only if it has fewer points than the next).
+    ``resolution_hz`` (each only if it has fewer points than the next). With a device that
+    measures several tones per acquisition, ``points`` is rounded down to whole acquisitions.
     """
     lo, hi = plan.band_hz
+    if plan.tones > 1 and points >= 2 * plan.tones:  # whole acquisitions: no partial one
+        points = max(points // plan.tones * plan.tones, MIN_POINTS)
     step = max(plan.resolution_hz, (hi - lo) / (points - 1))
     return dataclasses.replace(plan, resolution_hz=step)
 

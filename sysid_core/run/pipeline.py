@@ -44,7 +44,7 @@ from sysid_core.model.fitted import FittedModel
 from sysid_core.plugin.registry import Registry, get_registry
 from sysid_core.run.answer import Answer, answer
 from sysid_core.run.bench import Bench
-from sysid_core.run.benchtime import dwell
+from sysid_core.run.benchtime import dwell, settle, tones
 from sysid_core.run.components import build_components
 from sysid_core.run.config import PipelineConfig
 from sysid_core.run.fitter import Fitter
@@ -86,6 +86,9 @@ class TuningRun:
         Write the plots (default true).
     plot_format : str
         Their format: ``png`` (default), ``pdf`` or ``svg``.
+    from_model : FittedModel, optional
+        A previous model of the same gyro (``--from-model``): no locating sweep and no design
+        while its answers, anchored on the latest sweeps, bring the split down.
     """
 
     def __init__(
@@ -98,6 +101,7 @@ class TuningRun:
         registry: Registry | None = None,
         plots: bool = True,
         plot_format: str = "png",
+        from_model: FittedModel | None = None,
     ) -> None:
         self.config = config
         self.out = Path(out)
@@ -136,6 +140,7 @@ class TuningRun:
             config.device.name,
             self.say,
             owns_device=device is None,
+            tones=tones(dev, config.experiment.tones),
         )
         self.fitter = Fitter(
             self.structure,
@@ -154,10 +159,14 @@ class TuningRun:
             if config.model.drift == "track"
             else None
         )
-        plan = SweepPlan.from_config(config.experiment, dev.band_hz)
+        plan = SweepPlan.from_config(
+            config.experiment, dev.band_hz, tones=tones(dev, config.experiment.tones)
+        )
         context = RunContext(config, self.space, plan, self.bench, self.fitter, self.say)
         context.design(self.space.start_bias)  # the first design: limits and rank condition
-        self.protocol = make_protocol(context)
+        if from_model is not None:
+            check_prior(from_model, self.space.tuned)
+        self.protocol = make_protocol(context, from_model)
         folder.check(resume)
         self.notes: list[str] = []
         #: The common drift the fits found (Hz per hour), or None when not modelled.
@@ -237,6 +246,9 @@ class TuningRun:
                 dwell=dwell(
                     self.bench.device.device, cfg_dwell=self.config.experiment.dwell_s, model=model
                 ),
+                acquisitions=self.bench.acquisitions,
+                bias_changes=self.bench.bias_changes,
+                settle_s=settle(self.bench.device.device, self.config.experiment.settle_s),
                 confidence=step.result.confidence,
                 notes=self.notes,
                 clock_span_s=self.bench.clock_span_s,
@@ -356,4 +368,19 @@ class TuningRun:
             self.space.limits,
             acceptance_hz=self.config.tuning.acceptance_hz,
             regions=regions,
+        )
+
+
+def check_prior(model: FittedModel, tuned: list[str]) -> None:
+    """Refuse a previous model (``--from-model``) whose electrodes are not the tuned ones.
+
+    Raises
+    ------
+    ConfigError
+        Naming both lists.
+    """
+    if list(model.electrodes) != list(tuned):
+        raise ConfigError(
+            f"the model given (--from-model) has electrodes {list(model.electrodes)}, the run "
+            f"tunes {list(tuned)}: give a model fitted with the same [tuning] electrodes"
         )

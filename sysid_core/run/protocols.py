@@ -24,8 +24,10 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from sysid_core.data.schema import concat_experiments
+from sysid_core.data.schema import concat_experiments, point_times
 from sysid_core.data.validation import check_rank_condition
+from sysid_core.errors import ConfigError, DataError
+from sysid_core.identification.anchor import anchor
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.bench import Bench
 from sysid_core.run.config import PipelineConfig
@@ -48,6 +50,15 @@ from sysid_core.run.verification import Verification, verify
 from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion, TuningResult
 
 __all__ = ["FullProtocol", "LeanProtocol", "Prefit", "Protocol", "RunContext", "make_protocol"]
+
+#: The first sweep of a run from a previous model (``--from-model``) spans this many
+#: bandwidths of uncertainty around the modes the model predicts (the gyro may have moved).
+PRIOR_BANDWIDTHS = 2.0
+#: The previous model's answers must cut the verified split by at least this factor; else
+#: the run measures the local design.
+PRIOR_CONTRACTION = 0.5
+#: The latest sweeps that anchor the previous model.
+PRIOR_WINDOWS = 2
 
 #: A fit already made of the data an iteration will fit: the data, the model, its notes.
 Prefit = tuple[xr.Dataset, FittedModel, list[str]]
@@ -186,8 +197,13 @@ class LeanProtocol(Protocol):
     bias from then on, measuring the local design wherever they do not meet the rank condition.
     """
 
-    def __init__(self, ctx: RunContext) -> None:
+    def __init__(self, ctx: RunContext, prior: FittedModel | None = None) -> None:
         super().__init__(ctx)
+        #: A previous model of the gyro (``--from-model``): while its answers contract the
+        #: split, it is anchored on the latest sweeps instead of measuring designs.
+        self.prior = prior
+        self.prior_windows: list[xr.Dataset] = []
+        self.last_split: float | None = None
         self.known = Knowledge(ctx.space.tuned, ctx.space.structure_potential)
         self.locate_plan = locate_plan(ctx.plan)
         self.local = False
@@ -205,6 +221,10 @@ class LeanProtocol(Protocol):
         """
         ctx = self.ctx
         self.known.epoch = it
+        if self.prior is not None:
+            found = self._from_prior(it, bias, folder)
+            if found is not None:
+                return found
         if it > 1 and self.moved:
             self.local = True
             ctx.say(
@@ -247,7 +267,7 @@ class LeanProtocol(Protocol):
                 bw,
                 sigma if around_prediction else 0.0,
             )
-            return mode_grid(guess, self.ctx.plan)
+            return mode_grid(guess, self.ctx.plan, resolve=True)
 
         return self._verify_with(bias, predicted, model, folder, self.locate_plan, window)
 
@@ -263,6 +283,57 @@ class LeanProtocol(Protocol):
         if verification.verified and verification.frequencies_hz is not None:
             self.last_verified = (bias.copy(), np.asarray(verification.frequencies_hz, dtype=float))
             self.last_region = region
+        if self.prior is not None:
+            split = verification.split_hz if verification.verified else None
+            if split is None or (
+                self.last_split is not None and split > PRIOR_CONTRACTION * self.last_split
+            ):
+                seen = "not verified" if split is None else f"{split * 1e3:.3g} mHz"
+                self.ctx.say(
+                    f"the model given did not bring the split down ({seen}); measuring the "
+                    "local design from now on"
+                )
+                self.prior, self.local = None, True
+            else:
+                self.last_split = split
+                self.prior_windows.append(verification.sweep)
+
+    def _from_prior(
+        self, it: int, bias: np.ndarray, folder: Path
+    ) -> tuple[xr.Dataset, Prefit | None] | None:
+        """The prior model anchored on the latest sweeps (``--from-model``), or None.
+
+        Iteration 1 measures one mode grid at ``bias`` around the modes the prior predicts
+        there (no locating sweep, no design); later iterations use the verification windows.
+        The prior's bias law is kept; a stiffness and damping offset and a gain per sweep
+        (:func:`~sysid_core.identification.anchor.anchor`) bring it to the gyro now.
+        """
+        assert self.prior is not None
+        ctx = self.ctx
+        if it == 1:
+            modes = self.prior.modal(bias[ctx.space.index])
+            guess = ModeGuess.of(
+                modes.frequencies_hz, modes.bandwidth_hz, PRIOR_BANDWIDTHS * modes.bandwidth_hz
+            )
+            if not guess.usable():
+                raise DataError(
+                    "the model given (--from-model) has no usable modes at the start bias: "
+                    "tune without it, or start where it holds"
+                )
+            self._learn(bias, folder / "exp0.nc", first=mode_grid(guess, ctx.plan, resolve=True))
+            self.prior_windows.append(self.known.items[-1].data)
+        windows = self.prior_windows[-PRIOR_WINDOWS:]
+        timed = all(point_times(w, 0) is not None for w in windows)
+        found = anchor(self.prior, windows, rate=False, untimed=not timed)
+        at = found.t_ref + float(getattr(ctx.bench.device.device, "settle_s", None) or 0.0)
+        model = found.model_at(self.prior, at)
+        model.meta["fit_time_s"] = 0.0
+        ds = concat_experiments(windows).sel(electrode=ctx.space.tuned)
+        ctx.say(
+            f"iteration {it}: the model given anchored on {found.sweeps} sweep(s) at "
+            f"{len(windows)} bias(es) (no design measured)"
+        )
+        return ds, (ds, model, [])
 
     def sweep(
         self, bias: np.ndarray, freqs: np.ndarray, path: Path, band: bool
@@ -297,7 +368,7 @@ class LeanProtocol(Protocol):
         n = len(self.known)
         return f"a model of all {n} sweeps misses the verified modes by {gap * 1e3:.3g} mHz", None
 
-    def _learn(self, bias: np.ndarray, path: Path) -> None:
+    def _learn(self, bias: np.ndarray, path: Path, first: np.ndarray | None = None) -> None:
         """Measure one identification experiment where its modes should be.
 
         The whole band if nothing is known; a scout window if the bias steps an electrode not
@@ -309,7 +380,9 @@ class LeanProtocol(Protocol):
         ctx = self.ctx
         guess, scout = self.known.guess(bias, ctx.fitter.structure, ctx.fitter.model)
         locate = self.locate_plan.band()
-        if guess is None:
+        if first is not None:
+            pass
+        elif guess is None:
             first = locate
         elif scout:
             grid = scout_grid(guess, self.locate_plan)
@@ -338,8 +411,16 @@ class LeanProtocol(Protocol):
             )
 
 
-def make_protocol(ctx: RunContext) -> Protocol:
-    """The protocol the configuration names (``[experiment] protocol``)."""
+def make_protocol(ctx: RunContext, prior: FittedModel | None = None) -> Protocol:
+    """The protocol the configuration names (``[experiment] protocol``).
+
+    ``prior``: a previous model of the gyro (``--from-model``), used by the lean protocol.
+    """
     if ctx.config.experiment.protocol == "lean":
-        return LeanProtocol(ctx)
+        return LeanProtocol(ctx, prior)
+    if prior is not None:
+        raise ConfigError(
+            '--from-model needs the lean protocol ([experiment] protocol = "lean", the '
+            "default): the full protocol measures its own design every iteration"
+        )
     return FullProtocol(ctx)

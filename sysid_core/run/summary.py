@@ -108,6 +108,9 @@ class RunSummary:
     out: str = ""
     confidence: dict[str, Any] | None = None
     points: int = 0
+    acquisitions: int = 0
+    settle_s: float | None = None
+    bench_time_estimate_s: float | None = None
     bench_time_s: float | None = None
     dwell_s: float | None = None
     dwell_source: str | None = None
@@ -165,6 +168,9 @@ class RunSummary:
             "dwell_s": self.dwell_s,
             "dwell_source": self.dwell_source,
             "bench_time_source": self.bench_time_source,
+            "bench_time_estimate_s": self.bench_time_estimate_s,
+            "acquisitions": self.acquisitions,
+            "settle_s": self.settle_s,
             "drift_common_hz_per_h": self.drift_common_hz_per_h,
             "drift_split_hz_per_h": self.drift_split_hz_per_h,
             "converged": self.converged,
@@ -204,6 +210,9 @@ def summarize(
     points: int,
     dwell: tuple[float | None, str | None],
     confidence: ConfidenceRegion | None,
+    acquisitions: int | None = None,
+    bias_changes: int = 0,
+    settle_s: float | None = None,
     notes: list[str],
     clock_span_s: float | None = None,
     drift_hz_per_h: float | None = None,
@@ -212,12 +221,20 @@ def summarize(
     """The run's summary after the last iteration of ``history`` (a new object).
 
     ``ver`` and ``goals`` are that iteration's verification and goals, ``dwell`` the seconds
-    per point and where they come from (:func:`sysid_core.run.benchtime.dwell`): the bench
-    time is the device clock's span ``clock_span_s`` when every measurement carried time stamps
-    (``bench_time_source = "clock"``), else the estimate ``points × dwell`` (``"estimate"``).
+    per acquisition and where they come from (:func:`sysid_core.run.benchtime.dwell`): the
+    bench time is the device clock's span ``clock_span_s`` when every measurement carried time
+    stamps (``bench_time_source = "clock"``), else the estimate ``acquisitions × dwell +
+    bias_changes × settle_s`` (``"estimate"``; ``acquisitions`` defaults to ``points``, and
+    without ``settle_s`` the bias changes are not counted).
     """
     last = history[-1]
     dwell_s, dwell_source = dwell
+    n_acq = points if acquisitions is None else acquisitions
+    estimate = (
+        None
+        if dwell_s is None
+        else n_acq * dwell_s + (bias_changes * settle_s if settle_s else 0.0)
+    )
     return dataclasses.replace(
         before,
         bias=list(last.verified_bias),
@@ -228,13 +245,10 @@ def summarize(
         points=points,
         dwell_s=dwell_s,
         dwell_source=dwell_source,
-        bench_time_s=(
-            clock_span_s
-            if clock_span_s is not None
-            else None
-            if dwell_s is None
-            else points * dwell_s
-        ),
+        acquisitions=n_acq,
+        settle_s=settle_s,
+        bench_time_s=clock_span_s if clock_span_s is not None else estimate,
+        bench_time_estimate_s=estimate,
         bench_time_source=(
             "clock" if clock_span_s is not None else None if dwell_s is None else "estimate"
         ),

@@ -98,6 +98,9 @@ class SweepPlan:
         Span and step of the verification window around the predicted modes.
     max_points : int
         Most points of any sweep.
+    tones : int
+        Frequencies one acquisition of the device measures: a lean sweep fills its
+        acquisitions (:mod:`sysid_core.run.lean`).
     """
 
     band_hz: tuple[float, float]
@@ -107,10 +110,16 @@ class SweepPlan:
     verify_span_hz: float
     verify_resolution_hz: float
     max_points: int
+    tones: int = 1
 
     @classmethod
-    def from_config(cls, exp: ExperimentConfig, device_band_hz: Sequence[float]) -> SweepPlan:
-        """The plan of an ``[experiment]`` table for a device with ``band_hz``, checked."""
+    def from_config(
+        cls, exp: ExperimentConfig, device_band_hz: Sequence[float], tones: int = 1
+    ) -> SweepPlan:
+        """The plan of an ``[experiment]`` table for a device, checked.
+
+        The device's ``band_hz``, and its ``tones`` (frequencies per acquisition).
+        """
         band = (float(device_band_hz[0]), float(device_band_hz[1]))
         return cls(
             band_hz=exp.band_hz if exp.band_hz is not None else band,
@@ -120,6 +129,7 @@ class SweepPlan:
             verify_span_hz=exp.verify_span_hz,
             verify_resolution_hz=exp.verify_resolution_hz,
             max_points=exp.max_points,
+            tones=max(int(tones), 1),
         ).check(band)
 
     def check(self, device_band_hz: tuple[float, float]) -> SweepPlan:
