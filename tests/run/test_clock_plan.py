@@ -36,7 +36,9 @@ CONFIG = {
 
 
 def bench_gyro(seed: int, tones: int = 1) -> CloverleafGyro:
-    return CloverleafGyro(seed=seed, bench={"clock": True, "seed": seed, "tones": tones, **GOOD_LAB})
+    return CloverleafGyro(
+        seed=seed, bench={"clock": True, "seed": seed, "tones": tones, **GOOD_LAB}
+    )
 
 
 class Counting:
