@@ -44,7 +44,7 @@ def instrument_sim_cmd(
             min=1,
             help="Frequencies per acquisition: N > 1 makes the analyzer a lock-in with N "
             "demodulators, each acquisition measuring N consecutive frequencies (the device "
-            "measures with [device.bench] tones = N).",
+            "measures with its bench setting tones = N).",
         ),
     ] = 1,
 ) -> None:
@@ -53,7 +53,7 @@ def instrument_sim_cmd(
     They speak the visa device's shipped profiles (keysight-ena, keysight-ena-1rx,
     keysight-n6700); the analyzer answers with the simulated device's response at the voltages
     the source outputs. Prints one line starting with "listening" once both ports accept.
-    With --tones N, run the visa device with tones = N in its [device] table.
+    With --tones N, give the visa device the option tones = N.
     """
     from sysid_core.errors import ConfigError
     from sysid_core.plugin.registry import get_registry
