@@ -23,7 +23,12 @@ def instrument_sim_cmd(
         int, typer.Option("--source-port", help="TCP port of the bias source on 127.0.0.1.")
     ] = 5026,
     dwell_ms: Annotated[
-        float, typer.Option("--dwell-ms", help="Time per frequency point of each sweep (ms).")
+        float,
+        typer.Option(
+            "--dwell-ms",
+            help="Time per acquisition of each sweep (ms): per frequency point, or per N of "
+            "them with --tones N.",
+        ),
     ] = 0.0,
     readback_error: Annotated[
         str | None,
@@ -32,12 +37,23 @@ def instrument_sim_cmd(
             help="A fault to test with: CHANNEL:VOLTS added to what that channel reads back.",
         ),
     ] = None,
+    tones: Annotated[
+        int,
+        typer.Option(
+            "--tones",
+            min=1,
+            help="Frequencies per acquisition: N > 1 makes the analyzer a lock-in with N "
+            "demodulators, each acquisition measuring N consecutive frequencies (the device "
+            "measures with its bench setting tones = N).",
+        ),
+    ] = 1,
 ) -> None:
     """Serve a simulated analyzer and bias source (SCPI over TCP) until Ctrl-C or SIGTERM.
 
-    They speak the visa device's shipped profiles (keysight-ena, keysight-n6700); the analyzer
-    answers with the simulated device's response at the voltages the source outputs. Prints
-    one line starting with "listening" once both ports accept.
+    They speak the visa device's shipped profiles (keysight-ena, keysight-ena-1rx,
+    keysight-n6700); the analyzer answers with the simulated device's response at the voltages
+    the source outputs. Prints one line starting with "listening" once both ports accept.
+    With --tones N, give the visa device the option tones = N.
     """
     from sysid_core.errors import ConfigError
     from sysid_core.plugin.registry import get_registry
@@ -52,7 +68,9 @@ def instrument_sim_cmd(
             raise ConfigError(
                 f"--readback-error must be CHANNEL:VOLTS (e.g. 2:0.05), got {readback_error!r}"
             ) from None
-    options = {} if seed is None else {"seed": seed}
+    options: dict[str, object] = {} if seed is None else {"seed": seed}
+    if tones > 1:
+        options["bench"] = {"tones": tones}
     try:
         dev = get_registry().device(device, **options)
     except TypeError as exc:  # a bench device, whose options (dir, resources...) are missing
@@ -66,7 +84,7 @@ def instrument_sim_cmd(
             "random-gyro"
         )
     try:
-        sim = InstrumentSim(dev, analyzer_port, source_port, dwell_ms, fault)
+        sim = InstrumentSim(dev, analyzer_port, source_port, dwell_ms, fault, tones=tones)
     except OSError as exc:
         raise ConfigError(
             f"cannot listen on 127.0.0.1:{analyzer_port} / {source_port}: {exc.strerror}; "

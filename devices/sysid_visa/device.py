@@ -5,7 +5,10 @@ value in steps no larger than the source profile's ``max_step_v``, read back (a 
 more than ``readback_tolerance_v`` stops the run, naming the electrode, with the outputs set
 safe), the outputs are switched on (first time), then the analyzer is given the frequency list
 and, for each (output, input) pair of the gyro, selects it, triggers one sweep, waits for it
-and reads the complex response. The instruments' error queues (``SYST:ERR?``) are read after
+and reads the complex response: four sweeps. An analyzer whose profile says ``receivers = 2``
+measures both outputs of a drive input in one sweep (one trace per output): for each input it
+defines the two traces, triggers one sweep, waits for it and reads both traces: two sweeps.
+The instruments' error queues (``SYST:ERR?``) are read after
 every step; an error, a timeout or a lost connection is a one-line
 :class:`~sysid_core.errors.DeviceError` (measurements saved so far stay; ``--resume``
 continues once the instruments answer again). ``close()`` (called by the run when it ends,
@@ -32,7 +35,8 @@ from sysid_visa.profiles import AnalyzerProfile, SourceProfile, load_profile
 
 __all__ = ["VisaDevice"]
 
-_PAIR_ORDER = (("y1", "u1"), ("y1", "u2"), ("y2", "u1"), ("y2", "u2"))
+#: (output, input) indices of the pairs, in the order one receiver sweeps them.
+_PAIR_ORDER = ((0, 0), (0, 1), (1, 0), (1, 1))
 
 
 class VisaDevice:
@@ -67,6 +71,18 @@ class VisaDevice:
         Where ``close()`` leaves the electrodes: 0 V, or the first bias of the run (its start).
     bias_resolution : float, optional
         The source's voltage step (volts per DAC code), if it quantises.
+    tones : int, optional
+        Frequencies the analyzer measures per acquisition (a lock-in with several
+        demodulators); default: the analyzer profile's ``tones`` (1 in the shipped ones).
+
+    Attributes
+    ----------
+    receivers : int
+        Outputs one sweep measures (the analyzer profile's ``receivers``, 1 or 2).
+    points_per_frequency : int
+        Sweeps per measurement, each measuring every frequency once: ``4 // receivers``.
+    tones : int
+        Frequencies per acquisition (the device protocol's ``tones``).
     """
 
     name: ClassVar[str] = "visa"
@@ -91,8 +107,9 @@ class VisaDevice:
         point_delay_s: Annotated[float, Ge(0)] | None = None,
         safe_bias: Literal["zero", "first"] = "zero",
         bias_resolution: Annotated[float, Gt(0)] | None = None,
+        tones: Annotated[int, Ge(1)] | None = None,
     ) -> None:
-        self.electrodes = tuple(str(e) for e in electrodes)
+        self.electrodes: Sequence[str] = tuple(str(e) for e in electrodes)
         self.bias_limits = (float(bias_limits[0]), float(bias_limits[1]))
         self.structure_potential = float(structure_potential)
         self.band_hz = (float(band_hz[0]), float(band_hz[1]))
@@ -110,6 +127,11 @@ class VisaDevice:
         so = load_profile(source_profile, "source")
         assert isinstance(an, AnalyzerProfile) and isinstance(so, SourceProfile)
         self.aprof, self.sprof = an, so
+        self.receivers = an.receivers
+        #: Every frequency is measured once per sweep: one sweep per (output, input) pair, or
+        #: per input with two receivers.
+        self.points_per_frequency = 4 // self.receivers
+        self.tones = an.tones if tones is None else int(tones)
         self.if_bandwidth_hz = float(if_bandwidth_hz)
         self.point_delay_s = None if point_delay_s is None else float(point_delay_s)
         self.safe_mode = safe_bias
@@ -129,14 +151,12 @@ class VisaDevice:
     # ------------------------------------------------------------------ bench time
     @property
     def dwell_s(self) -> float | None:
-        """Seconds per frequency point of one sweep, ``1/if_bandwidth_hz + point_delay_s``;
-        None without ``point_delay_s`` (the run then estimates the settling from the modes)."""
+        """Seconds per acquisition of one sweep, ``1/if_bandwidth_hz + point_delay_s``: one
+        frequency point each, or :attr:`tones` of them; None without ``point_delay_s`` (the run
+        then estimates the settling from the modes)."""
         if self.point_delay_s is None:
             return None
         return 1.0 / self.if_bandwidth_hz + self.point_delay_s
-
-    #: Every frequency is measured once per (output, input) pair.
-    points_per_frequency: ClassVar[int] = 4
 
     def set_progress(self, say: Callable[[str], None]) -> None:
         """Receive the run's progress callback."""
@@ -285,11 +305,56 @@ class VisaDevice:
         return read
 
     # ------------------------------------------------------------------ the analyzer
-    def _sweep(self, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The 2×2 response at ``f``, one sweep per pair, and each point's time stamp.
+    def _plan(self) -> list[list[tuple[int, int, int]]]:
+        """The sweeps of a measurement: each a list of ``(trace, output, input)`` it reads.
 
-        The stamps are the host's monotonic clock: per pair, the sweep's start and end
-        interpolated over its points, averaged over the pairs.
+        One receiver: one sweep per pair, on trace 1. Two: one sweep per input, output ``i``
+        on trace ``i + 1``.
+        """
+        if self.receivers == 1:
+            return [[(1, i, j)] for i, j in _PAIR_ORDER]
+        return [[(1, 0, j), (2, 1, j)] for j in (0, 1)]
+
+    def _pair_fields(self, trace: int, i: int, j: int) -> dict[str, str]:
+        return {
+            "trace": str(trace),
+            "parameter": self.aprof.pairs[f"y{i + 1}/u{j + 1}"],
+            "output": f"y{i + 1}",
+            "input": f"u{j + 1}",
+        }
+
+    def _read_trace(self, fields: dict[str, str], n: int) -> np.ndarray:
+        """Read one trace (its ``activate`` commands first): ``n`` complex points."""
+        c = self.aprof.commands
+        for command in c.activate:
+            self._write("analyzer", command.format(**fields))
+        if c.activate:
+            self._errors("analyzer", c.activate[-1].format(**fields))
+        # one receiver: `read` is sent as written (it was never a template)
+        read = c.read.format(**fields) if self.receivers == 2 else c.read
+        text = self._query("analyzer", read)
+        self._errors("analyzer", read)
+        parameter = fields["parameter"]
+        try:
+            values = np.array([float(v) for v in text.split(",")])
+        except ValueError:
+            raise DeviceError(
+                f"visa: the analyzer's data for {parameter} are not numbers ({text[:40]!r})"
+            ) from None
+        if values.size != 2 * n:
+            raise DeviceError(
+                f"visa: the analyzer returned {values.size // 2} points for {parameter}; "
+                f"{n} were asked"
+            )
+        return values[0::2] + 1j * values[1::2]
+
+    def _sweep(self, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The 2×2 response at ``f`` and each point's time stamp.
+
+        One sweep per pair (one receiver) or per input (two receivers, :meth:`_plan`). The
+        stamps are the host's monotonic clock: per sweep, its start and end interpolated over
+        its acquisitions (:attr:`tones` consecutive points each share one), averaged over the
+        sweeps made.
         """
         c = self.aprof.commands
         fields = {
@@ -310,37 +375,31 @@ class VisaDevice:
         self._errors("analyzer", "the frequency list")
         out = np.empty((f.size, 2, 2), dtype=complex)
         stamps = np.zeros(f.size)
-        for i, j in ((0, 0), (0, 1), (1, 0), (1, 1)):
+        acquisition = np.arange(f.size) // self.tones
+        done = (acquisition + 1) / (acquisition[-1] + 1)  # of the sweep, when each point is
+        plan = self._plan()
+        for sweep in plan:
             started = time.monotonic()
-            pair = {"output": f"y{i + 1}", "input": f"u{j + 1}"}
-            parameter = self.aprof.pairs[f"y{i + 1}/u{j + 1}"]
-            for command in c.select:
-                self._write("analyzer", command.format(parameter=parameter, **pair))
-            if c.select:
-                self._errors("analyzer", c.select[-1].format(parameter=parameter, **pair))
+            for trace, i, j in sweep:
+                pair = self._pair_fields(trace, i, j)
+                for command in c.select:
+                    self._write("analyzer", command.format(**pair))
+                if c.select:
+                    self._errors("analyzer", c.select[-1].format(**pair))
+            # one receiver: the pair's fields; two: the input's (both outputs are measured)
+            first = self._pair_fields(*sweep[0])
+            trigger = first if self.receivers == 1 else {"input": first["input"]}
             for command in c.trigger:
-                self._write("analyzer", command.format(parameter=parameter, **pair))
+                self._write("analyzer", command.format(**trigger))
             self._query("analyzer", c.wait)
-            text = self._query("analyzer", c.read)
-            self._errors("analyzer", c.read)
-            try:
-                values = np.array([float(v) for v in text.split(",")])
-            except ValueError:
-                raise DeviceError(
-                    f"visa: the analyzer's data for {parameter} are not numbers ({text[:40]!r})"
-                ) from None
-            if values.size != 2 * f.size:
-                raise DeviceError(
-                    f"visa: the analyzer returned {values.size // 2} points for {parameter}; "
-                    f"{f.size} were asked"
-                )
-            out[:, i, j] = values[0::2] + 1j * values[1::2]
+            for trace, i, j in sweep:
+                out[:, i, j] = self._read_trace(self._pair_fields(trace, i, j), f.size)
             ended = time.monotonic()
-            stamps += started + (ended - started) * np.arange(1, f.size + 1) / f.size
-        return out, stamps / 4
+            stamps += started + (ended - started) * done
+        return out, stamps / len(plan)
 
     # ------------------------------------------------------------------ the protocol
-    def applied_bias(self, bias: Sequence[float]) -> np.ndarray:
+    def applied_bias(self, bias: Sequence[float] | np.ndarray) -> np.ndarray:
         """What the source applies for ``bias``: rounded to ``bias_resolution`` if stated."""
         b = np.asarray(bias, dtype=float)
         step = getattr(self, "bias_resolution", None)

@@ -2,10 +2,16 @@
 
 A profile is a file (``kind = "analyzer"`` or ``"source"``); the shipped ones are in
 ``sysid_visa/profiles/`` and are named by their file stem (``keysight-ena``,
-``keysight-n6700``); any other is given by its path. Templates use ``{name}`` fields filled in
-by the device (docs/instruments.md lists them). A profile is checked when the device is
-created: unknown keys, missing commands and templates with unknown fields are refused then,
-not in the middle of a run.
+``keysight-ena-1rx``, ``keysight-n6700``); any other is given by its path. Templates use
+``{name}`` fields filled in by the device (docs/instruments.md lists them). A profile is checked
+when the device is created: unknown keys, missing commands and templates with unknown fields
+are refused then, not in the middle of a run.
+
+An analyzer profile also states what the analyzer can do: ``receivers`` (1 or 2, default 1),
+the outputs one sweep measures, and ``tones`` (default 1), the frequencies one acquisition
+measures. With ``receivers = 2`` one sweep per drive input measures both outputs, each on its
+own trace: the ``select`` commands define trace ``{trace}`` (1 for y1, 2 for y2) before the
+sweep, and the ``activate`` commands and ``read`` read it after the sweep.
 """
 
 from __future__ import annotations
@@ -16,7 +22,14 @@ import tomllib
 from pathlib import Path
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from sysid_core.errors import ConfigError
 
@@ -48,14 +61,26 @@ def _fields(template: str) -> set[str]:
     return {f for _, f, _, _ in string.Formatter().parse(template) if f}
 
 
-def _check(templates: dict[str, list[str]], allowed: dict[str, set[str]]) -> None:
+def _check(
+    templates: dict[str, list[str]],
+    allowed: dict[str, set[str]],
+    hints: dict[str, str] | None = None,
+) -> None:
+    """Refuse a template that uses a field its command does not have.
+
+    ``hints`` maps a field to a remark added to the message when a template uses it.
+    """
     for key, texts in templates.items():
         for text in texts:
             bad = _fields(text) - allowed[key]
             if bad:
                 known = ", ".join(sorted(allowed[key])) or "none"
                 used = ", ".join(sorted(bad))
-                raise ValueError(f"command {key} = {text!r} uses {{{used}}}; its fields: {known}")
+                notes = sorted({(hints or {})[f] for f in bad if f in (hints or {})})
+                note = f" ({'; '.join(notes)})" if notes else ""
+                raise ValueError(
+                    f"command {key} = {text!r} uses {{{used}}}; its fields: {known}{note}"
+                )
 
 
 class _Commands(_Strict):
@@ -68,45 +93,118 @@ class _Commands(_Strict):
 
 
 class AnalyzerCommands(_Commands):
-    """An analyzer's SCPI commands (templates)."""
+    """An analyzer's SCPI commands (templates).
+
+    ``activate`` (only with ``receivers = 2``): written before ``read`` for each trace, to make
+    trace ``{trace}`` the one ``read`` reads.
+    """
 
     frequencies: str
     segment: str = "{frequency_hz}"
     select: list[str]
     trigger: list[str] = Field(default_factory=list)
     wait: str = "*OPC?"
+    activate: list[str] = Field(default_factory=list)
     read: str
 
 
+def _count(value: object, low: int, high: int | None = None) -> int:
+    """``value`` if an integer in ``[low, high]``, else a ValueError saying what it must be."""
+    if (
+        isinstance(value, int)
+        and not isinstance(value, bool)
+        and low <= value
+        and (high is None or value <= high)
+    ):
+        return value
+    want = f"{low} or {high}" if high == low + 1 else f"an integer >= {low}"
+    raise ValueError(f"must be {want}, got {value!r}")
+
+
 class AnalyzerProfile(_Strict):
-    """``kind = "analyzer"``: sweeps a frequency list and reads each (output, input) pair."""
+    """``kind = "analyzer"``: sweeps a frequency list and reads each (output, input) pair.
+
+    ``receivers`` (1 or 2) is how many outputs one sweep measures: 1, one sweep per pair (four
+    per measurement); 2, one sweep per drive input measuring both outputs (two). ``tones``
+    is how many frequencies one acquisition measures (a lock-in's demodulators).
+    """
 
     kind: Literal["analyzer"]
     name: str
+    receivers: int = 1
+    tones: int = 1
     connection: Connection = Connection()
     commands: AnalyzerCommands
     pairs: dict[str, str]
+
+    @field_validator("receivers", mode="before")
+    @classmethod
+    def _receivers(cls, value: object) -> int:
+        try:
+            return _count(value, 1, 2)
+        except ValueError as exc:
+            raise ValueError(f"{exc} (the outputs one sweep measures)") from None
+
+    @field_validator("tones", mode="before")
+    @classmethod
+    def _tones(cls, value: object) -> int:
+        try:
+            return _count(value, 1)
+        except ValueError as exc:
+            raise ValueError(f"{exc} (the frequencies one acquisition measures)") from None
 
     @model_validator(mode="after")
     def _templates(self) -> AnalyzerProfile:
         c = self.commands
         setup_fields = {"if_bandwidth_hz", "delay_s"}
-        _check(
-            {
-                "setup": c.setup,
-                "frequencies": [c.frequencies],
-                "segment": [c.segment],
-                "select": c.select,
-                "trigger": c.trigger,
-            },
-            {
-                "setup": setup_fields,
-                "frequencies": {"count", "segments", "start_hz", "stop_hz"},
-                "segment": {"frequency_hz", "delay_s", "if_bandwidth_hz"},
-                "select": {"parameter", "output", "input"},
-                "trigger": {"parameter", "output", "input"},
-            },
-        )
+        pair = {"parameter", "output", "input"}
+        templates = {
+            "setup": c.setup,
+            "frequencies": [c.frequencies],
+            "segment": [c.segment],
+            "select": c.select,
+            "trigger": c.trigger,
+        }
+        allowed = {
+            "setup": setup_fields,
+            "frequencies": {"count", "segments", "start_hz", "stop_hz"},
+            "segment": {"frequency_hz", "delay_s", "if_bandwidth_hz"},
+            "select": pair,
+            "trigger": pair,
+        }
+        if self.receivers == 1:
+            _check(templates, allowed, {"trace": "{trace} needs receivers = 2"})
+            if c.activate:
+                raise ValueError(
+                    "commands.activate is for receivers = 2 (which trace read reads); remove "
+                    "it or set receivers = 2"
+                )
+        else:
+            trace = pair | {"trace"}
+            _check(
+                {**templates, "activate": c.activate, "read": [c.read]},
+                {
+                    **allowed,
+                    "select": trace,
+                    "trigger": {"input"},
+                    "activate": trace,
+                    "read": trace,
+                },
+                {
+                    "parameter": "one sweep per input measures both outputs",
+                    "output": "one sweep per input measures both outputs",
+                },
+            )
+            if not any("trace" in _fields(t) for t in c.select):
+                raise ValueError(
+                    "receivers = 2: a select command must use {trace} to put each output on its "
+                    "own trace, e.g. select = [':CALC1:PAR{trace}:DEF {parameter}']"
+                )
+            if not any("trace" in _fields(t) for t in [*c.activate, c.read]):
+                raise ValueError(
+                    "receivers = 2: read or an activate command must use {trace} to say which "
+                    "trace is read, e.g. activate = [':CALC1:PAR{trace}:SEL']"
+                )
         want = {"y1/u1", "y1/u2", "y2/u1", "y2/u2"}
         if set(self.pairs) != want:
             raise ValueError(f"[pairs] must name exactly {sorted(want)}, got {sorted(self.pairs)}")

@@ -1,14 +1,23 @@
 """``sysid instrument-sim``: a simulated analyzer and bias source on 127.0.0.1 (SCPI over TCP).
 
-They speak the shipped profiles (``keysight-ena`` and ``keysight-n6700``) and are backed by
-any installed simulated device: the analyzer answers with that device's response at the
-voltages the source currently outputs (on the channels whose output is on; 0 V otherwise).
-Channel ``k`` (1, 2, ...) is the device's ``k``-th electrode. The source quantises what it
-is told as the device's DAC would (its ``applied_bias``) and reads that back.
+They speak the shipped profiles (``keysight-ena``, ``keysight-ena-1rx`` and
+``keysight-n6700``) and are backed by any installed simulated device: the analyzer answers with
+that device's response at the voltages the source currently outputs (on the channels whose
+output is on; 0 V otherwise). Channel ``k`` (1, 2, ...) is the device's ``k``-th electrode. The
+source quantises what it is told as the device's DAC would (its ``applied_bias``) and reads
+that back.
 
-One measurement of the device is made per (bias, frequency list) and its four pairs are
-served from it, so a run through the instruments sees the same data as the built-in device
-with the same seed. ``dwell_ms`` makes each sweep take that long per point.
+The analyzer has traces as an ENA does: ``:CALC1:PAR:COUN n`` makes ``n`` of them (1 at
+start), ``:CALC1:PAR{k}:DEF Sxy`` sets trace ``k``'s parameter (S31, S32, S41, S42),
+``:CALC1:PAR{k}:SEL`` makes it the active trace, whose data ``:CALC1:DATA:SDAT?`` reads. One
+``:TRIG:SING`` sweeps every trace (:attr:`InstrumentSim.triggers` counts them). One measurement
+of the device is made per (bias, frequency list) and every trace is served from it, so a run
+through the instruments sees the same data as the built-in device with the same seed, however
+many sweeps it takes. ``tones`` makes the analyzer a lock-in with that many demodulators: each
+acquisition measures that many consecutive frequencies of the list (the backing device should
+measure with the same ``[device.bench] tones``, as ``sysid instrument-sim --tones`` builds
+it). ``dwell_ms`` makes each acquisition take that long (one frequency point each, or
+``tones`` of them).
 
 A line that is not a known command queues ``-113,"Undefined header"`` for ``SYST:ERR?``;
 queries answer one line. Faults for tests: ``readback_error`` adds volts to what one channel
@@ -26,9 +35,13 @@ from typing import Any
 
 import numpy as np
 
+from sysid_core.errors import ConfigError
+
 __all__ = ["InstrumentSim"]
 
 _PAIRS = {"S31": (0, 0), "S32": (0, 1), "S41": (1, 0), "S42": (1, 1)}
+#: The most traces of the channel (as an ENA's channel).
+_MAX_TRACES = 16
 _NUMBER = r"([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
 
 
@@ -64,9 +77,22 @@ class InstrumentSim:
     analyzer_port, source_port : int
         TCP ports on 127.0.0.1 (0: any free port; see :attr:`ports`).
     dwell_ms : float
-        Time per frequency point of each sweep (milliseconds).
+        Time per acquisition of each sweep (milliseconds): per frequency point, or per
+        ``tones`` of them.
     readback_error : (channel, volts), optional
         A fault: that channel reads back this much more than it outputs.
+    tones : int, optional
+        Frequencies per acquisition (a lock-in's demodulators); default: the device's
+        ``tones`` (1 without).
+
+    Attributes
+    ----------
+    triggers : int
+        Analyzer sweeps triggered (``:TRIG:SING`` with a frequency list loaded).
+    acquisitions : int
+        Acquisitions of those sweeps (``ceil(points / tones)`` each).
+    sweeps : int
+        Measurements of the backing device (one per new bias or frequency list).
     """
 
     def __init__(
@@ -76,6 +102,7 @@ class InstrumentSim:
         source_port: int = 0,
         dwell_ms: float = 0.0,
         readback_error: tuple[int, float] | None = None,
+        tones: int | None = None,
     ) -> None:
         self.device = device
         self.n = len(device.electrodes)
@@ -85,11 +112,18 @@ class InstrumentSim:
         self.readback_error = readback_error
         self.lock = threading.Lock()
         self.errors: dict[str, list[str]] = {"analyzer": [], "source": []}
+        self.tones = int(getattr(device, "tones", 1) if tones is None else tones)
+        if self.tones < 1:
+            raise ConfigError(f"instrument-sim: tones must be an integer >= 1, got {self.tones}")
         self.freqs: np.ndarray | None = None
-        self.parameter = "S31"
-        self.data: np.ndarray | None = None
+        #: Each trace's parameter (trace 1, 2, ...), the active trace, each trace's last data.
+        self.parameters = ["S31"]
+        self.active = 1
+        self.data: list[np.ndarray | None] = [None]
         self.cache: dict[bytes, np.ndarray] = {}
         self.sweeps = 0
+        self.triggers = 0
+        self.acquisitions = 0
         self.analyzer = _Server(analyzer_port, self._analyzer)
         self.source = _Server(source_port, self._source)
         self.ports = (self.analyzer.server_address[1], self.source.server_address[1])
@@ -113,7 +147,12 @@ class InstrumentSim:
     # ------------------------------------------------------------------ common
     def _common(self, who: str, line: str) -> str | None:
         if line == "*IDN?":
-            name = "sysid-sim,ENA-like analyzer" if who == "analyzer" else "sysid-sim,N6700-like"
+            if who == "source":
+                name = "sysid-sim,N6700-like"
+            elif self.tones == 1:
+                name = "sysid-sim,ENA-like analyzer"
+            else:
+                name = f"sysid-sim,lock-in-like analyzer ({self.tones} tones)"
             return f"{name},0,1.0"
         if line == "*CLS":
             self.errors[who].clear()
@@ -168,25 +207,52 @@ class InstrumentSim:
             return self._common("source", line)
 
     # ------------------------------------------------------------------ the analyzer
+    def _trace(self, text: str) -> int | None:
+        """Index of trace ``text`` (1-based; empty: 1), or None with ``-114`` queued."""
+        k = int(text) if text else 1
+        if 1 <= k <= len(self.parameters):
+            return k - 1
+        self.errors["analyzer"].append('-114,"Header suffix out of range"')
+        return None
+
     def _analyzer(self, line: str) -> str | None:
         upper = line.upper()
         if upper.startswith(":SENS1:SEGM:DATA "):
-            return self._segments(line.split(None, 1)[1])
-        m = re.fullmatch(r":CALC1:PAR1:DEF\s+(\S+)", line, re.IGNORECASE)
-        if m:
-            if m.group(1).upper() not in _PAIRS:
+            self._segments(line.split(None, 1)[1])
+            return None
+        if m := re.fullmatch(r":CALC1:PAR:COUN\s+(\d+)", line, re.IGNORECASE):
+            n = int(m.group(1))
+            if not 1 <= n <= _MAX_TRACES:
+                self.errors["analyzer"].append('-222,"Data out of range"')
+                return None
+            kept = min(n, len(self.parameters))
+            self.parameters = self.parameters[:kept] + ["S31"] * (n - kept)
+            self.data = self.data[:kept] + [None] * (n - kept)
+            if self.active > n:
+                self.active = 1
+            return None
+        if m := re.fullmatch(r":CALC1:PAR(\d*):DEF\s+(\S+)", line, re.IGNORECASE):
+            if (k := self._trace(m.group(1))) is None:
+                return None
+            if m.group(2).upper() not in _PAIRS:
                 self.errors["analyzer"].append('-224,"Illegal parameter value"')
             else:
-                self.parameter = m.group(1).upper()
+                self.parameters[k] = m.group(2).upper()
+                self.data[k] = None
+            return None
+        if m := re.fullmatch(r":CALC1:PAR(\d*):SEL", line, re.IGNORECASE):
+            if (k := self._trace(m.group(1))) is not None:
+                self.active = k + 1
             return None
         if upper == ":TRIG:SING":
             self._sweep()
             return None
         if upper == ":CALC1:DATA:SDAT?":
-            if self.data is None:
+            data = self.data[self.active - 1]
+            if data is None:
                 self.errors["analyzer"].append('-230,"Data corrupt or stale"')
                 return "0"
-            values = np.column_stack([self.data.real, self.data.imag]).ravel()
+            values = np.column_stack([data.real, data.imag]).ravel()
             return ",".join(f"{v:.12E}" for v in values)
         if re.fullmatch(r":SENS1:BAND\s+" + _NUMBER, line, re.IGNORECASE) or upper in (
             ":SENS1:SWE:TYPE SEGM",
@@ -209,7 +275,7 @@ class InstrumentSim:
             self.errors["analyzer"].append('-224,"Illegal parameter value"')
             return None
         self.freqs = rows[:, 0].copy()
-        self.data = None
+        self.data = [None] * len(self.parameters)
         return None
 
     def _sweep(self) -> None:
@@ -222,10 +288,14 @@ class InstrumentSim:
         if key not in self.cache:
             self.cache = {key: np.asarray(self.device.measure(bias.tolist(), self.freqs).values)}
             self.sweeps += 1
+        acquisitions = -(-self.freqs.size // self.tones)
         if self.dwell_s:
-            time.sleep(self.dwell_s * self.freqs.size)
-        i, j = _PAIRS[self.parameter]
-        self.data = self.cache[key][:, i, j]
+            time.sleep(self.dwell_s * acquisitions)
+        self.triggers += 1
+        self.acquisitions += acquisitions
+        for k, parameter in enumerate(self.parameters):  # one sweep serves every trace
+            i, j = _PAIRS[parameter]
+            self.data[k] = self.cache[key][:, i, j]
 
 
 def main_loop(sim: InstrumentSim, say: Callable[[str], None]) -> None:
