@@ -285,7 +285,7 @@ class TuningRun:
                 f"({float(rate) * 1e6:+.3g} ppm/h, from the time stamps)"
             )
         law = model.meta.get("stiffness_law")
-        if law is not None:
+        if law is not None and not model.meta.get("from_model"):
             stat, limit = model.meta.get("law_statistic"), model.meta.get("law_threshold")
             test = (
                 f" (test of the L_p terms {stat:.3g} {'>' if law == 'quadratic' else '<='} "

@@ -344,11 +344,13 @@ def plot_iteration(
     """
     folder = Path(folder)
     units = str(ds.attrs.get("response_units", "") or "response units")
+    law = model.meta.get("stiffness_law")
+    kind = f"{model.structure.name} model{' (' + law + ' stiffness law)' if law else ''}"
     title = (
-        f"iteration {it}: {model.structure.name} model"
-        f"{' (' + law + ' stiffness law)' if (law := model.meta.get('stiffness_law')) else ''} "
-        f"fitted to {ds.sizes['experiment']} experiments, residual γ = {model.gamma:.3g} "
-        f"({units})·(rad/s)²"
+        f"iteration {it}: a previous {kind} anchored on {ds.sizes['experiment']} sweep(s)"
+        if model.meta.get("from_model")
+        else f"iteration {it}: {kind} fitted to {ds.sizes['experiment']} experiments, "
+        f"residual γ = {model.gamma:.3g} ({units})·(rad/s)²"
     )
     save_figure(fit_figure(ds, model, title), folder / f"fit.{fmt}")
     save_figure(

@@ -327,7 +327,7 @@ class LeanProtocol(Protocol):
         found = anchor(self.prior, windows, rate=False, untimed=not timed)
         at = found.t_ref + float(getattr(ctx.bench.device.device, "settle_s", None) or 0.0)
         model = found.model_at(self.prior, at)
-        model.meta["fit_time_s"] = 0.0
+        model.meta.update(fit_time_s=0.0, from_model=True)
         ds = concat_experiments(windows).sel(electrode=ctx.space.tuned)
         ctx.say(
             f"iteration {it}: the model given anchored on {found.sweeps} sweep(s) at "
