@@ -6,6 +6,7 @@
 Each run tunes a simulated gyro on a bench with a clock (settling 3 τ after each bias change,
 5 Q/ω per acquisition, ``--tones`` frequencies per acquisition, each tone with √tones more
 noise because the drive is shared) and the drift of a good lab (0.2 K/h ramp, 0.05 K/√h walk).
+A run that never gets there counts as never (an infinite time) in the percentiles.
 ``cloverleaf``: the simulated cloverleaf from ``--starts`` random starts in ±9 V on B1 and B2
 (start k uses seed k); ``random``: one random gyro per seed, from 0 V, first step 3 V. Degenerate
 modes with B1 and B2, acceptance 1 mHz, up to 4 iterations. With ``--from-model``, each run
@@ -14,8 +15,9 @@ drift; its own time is not counted).
 
 After every measurement a recorder reads the TRUE split at that bias on the clock (the run never
 sees it). The time to 1 mHz is the clock at the end of the first verification of an answer
-whose true split was then at most 1 mHz (runs that never get there count with their whole bench
-time). One JSON line per run goes to ``<out>/runs.jsonl``; then the table row.
+whose true split was then at most 1 mHz. One JSON line per run goes to ``<out>/runs.jsonl``;
+then the table row.
+``--table DIR [DIR ...]`` prints the rows of earlier populations from their ``runs.jsonl``.
 """
 
 from __future__ import annotations
@@ -140,19 +142,28 @@ def one(
     }
 
 
+def _minutes(x: float) -> str:
+    return "never" if not np.isfinite(x) else f"{x:.1f}"
+
+
 def row(label: str, records: list[dict]) -> str:
-    """The table row."""
+    """The table row (a run that never reached 1 mHz counts as never: an infinite time)."""
     ok = [r for r in records if "error" not in r]
-    minutes = np.array([(r["time_to_target_s"] or r["clock_s"]) / 60 for r in ok] or [np.nan])
+    minutes = np.array(
+        [np.inf if r["time_to_target_s"] is None else r["time_to_target_s"] / 60 for r in ok]
+        or [np.nan]
+    )
     reached = sum(r["time_to_target_s"] is not None for r in ok)
     end = np.array([r["true_end_split_hz"] * 1e3 for r in ok] or [np.nan])
     points = np.median([r["points"] for r in ok]) if ok else np.nan
-    p50, p90 = np.percentile(minutes, [50, 90])
+    p50, p90 = np.percentile(minutes, [50, 90], method="lower")
     e50, e90 = np.percentile(end, [50, 90])
+    clock = np.median([r["clock_s"] / 60 for r in ok]) if ok else np.nan
     return (
-        f"| {label} | {reached}/{len(records)} | {p50:.1f} / {p90:.1f} / {minutes.max():.1f} | "
-        f"{points:.0f} | {e50:.3f} / {e90:.3f} / {end.max():.3f} | "
-        f"{sum(e <= TARGET_HZ * 1e3 for e in end)}/{len(records)} | {len(records) - len(ok)} |"
+        f"| {label} | {reached}/{len(records)} | {_minutes(p50)} / {_minutes(p90)} / "
+        f"{_minutes(minutes.max())} | {clock:.1f} | {points:.0f} | {e50:.3f} / {e90:.3f} / "
+        f"{end.max():.3f} | {sum(e <= TARGET_HZ * 1e3 for e in end)}/{len(records)} | "
+        f"{len(records) - len(ok)} |"
     )
 
 
@@ -169,7 +180,13 @@ def main() -> None:
     )
     parser.add_argument("--label", default=None)
     parser.add_argument("--out", type=Path, default=Path("runs/clock-population"))
+    parser.add_argument("--table", nargs="+", type=Path, help="rows of earlier outputs")
     args = parser.parse_args()
+    if args.table:
+        for folder in args.table:
+            lines = (folder / "runs.jsonl").read_text().splitlines()
+            print(row(folder.name, [json.loads(line) for line in lines]))
+        return
     args.out.mkdir(parents=True, exist_ok=True)
     experiment = json.loads(args.experiment)
     which = list(range(1, args.starts + 1)) if args.gyro == "cloverleaf" else seeds(args.seeds)
@@ -183,10 +200,11 @@ def main() -> None:
         f"{args.gyro}, {args.tones} tone(s){', from a model' if args.from_model else ''}"
     )
     print(
-        "| run | reached 1 mHz | minutes to 1 mHz: median / 90 % / max | points (median) | "
-        "true end split median / 90 % / max (mHz) | end within 1 mHz | errors |"
+        "| run | reached 1 mHz | minutes to 1 mHz: median / 90 % / max | minutes in all "
+        "(median) | points (median) | true end split median / 90 % / max (mHz) | end within "
+        "1 mHz | errors |"
     )
-    print("|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|")
     print(row(label, records))
 
 
