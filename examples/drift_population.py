@@ -45,10 +45,10 @@ def seeds(text: str) -> list[int]:
     return [int(s) for s in text.split(",")]
 
 
-def one(seed: int, bench: str, drift: str, out: Path, iterations: int = 4) -> dict:
+def one(seed: int, bench: str, drift: str, out: Path, iterations: int = 4, tones: int = 1) -> dict:
     """Tune gyro ``seed``; its record (true split at the end, claim, points, bench time)."""
     sign = 1.0 if seed % 2 else -1.0
-    table = {"clock": True, "seed": seed, **BENCHES[bench]}
+    table = {"clock": True, "seed": seed, "tones": tones, **BENCHES[bench]}
     table["temperature_ramp_k_per_h"] *= sign
     options: dict = {"seed": seed, "bench": table}
     if NOISE[bench] is not None:
@@ -108,13 +108,14 @@ def main() -> None:
     )
     parser.add_argument("--seeds", default="101-124")
     parser.add_argument("--iterations", type=int, default=4, help="max_iterations (4)")
+    parser.add_argument("--tones", type=int, default=1, help="tones per acquisition (1)")
     parser.add_argument("--out", type=Path, default=Path("runs/drift-population"))
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     records = []
     with (args.out / "runs.jsonl").open("w") as log:
         for seed in seeds(args.seeds):
-            records.append(one(seed, args.bench, args.drift, args.out, args.iterations))
+            records.append(one(seed, args.bench, args.drift, args.out, args.iterations, args.tones))
             log.write(json.dumps(records[-1]) + "\n")
             log.flush()
     print(
