@@ -23,6 +23,15 @@ centring removes the near-cancellation of :math:`M\omega^2` and :math:`K_0`.
 
 The scaled unknowns form the vector :math:`\theta` (layout in :class:`ParameterLayout`), and the
 equation error at every data point is linear in it: :math:`E_i = G_i\theta`.
+
+Noise weights: when every data point has a noise variance (the data set's ``noise_var``,
+:mod:`sysid_core.data.schema`), point :math:`i`'s rows are multiplied by
+:math:`w_i = v_i^{-1/2}`, :math:`v_i` the mean of its four channels' variances, normalised so
+that :math:`\operatorname{mean}_i w_i^2 = 1`: a response's noise :math:`n` enters the equation
+error as :math:`n Z` (or :math:`Z n`), so a point's equation-error noise is proportional to its
+response noise, and the weighted errors have the same noise level everywhere. Equal variances
+(or a point without one) leave the rows as they are. Everything computed from ``G`` (the
+objectives, ``gram``, ``residuals``, the covariance) sees the weighted problem.
 """
 
 from __future__ import annotations
@@ -33,19 +42,59 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.conic.program import SYM_BASIS, sigma_max_2x2
-from sysid_core.data.schema import measured_mask, squared_potentials
+from sysid_core.data.schema import RESPONSE_DIMS, measured_mask, squared_potentials
 from sysid_core.data.validation import check_rank_condition, validate
 from sysid_core.errors import DataError
 from sysid_core.identification.scaling import ParameterLayout, Scaling
 from sysid_core.model.structures import ModelStructure
 
-__all__ = ["EPS_DAMPING", "EPS_STIFFNESS", "FitProblem", "ParameterLayout", "Scaling"]
+__all__ = [
+    "EPS_DAMPING",
+    "EPS_STIFFNESS",
+    "FitProblem",
+    "ParameterLayout",
+    "Scaling",
+    "noise_weights",
+]
 
 #: Strict inequality C > 0 becomes C ⪰ EPS_DAMPING·ω0·ε·I (scaled: C̃ ⪰ EPS_DAMPING·I);
 #: it bounds Q below about 1/(ε·EPS_DAMPING) ≈ 1e9 for a 1.4 % band.
 EPS_DAMPING = 1e-8
 #: Strict inequality K(w_k) > 0 becomes K(w_k) ⪰ EPS_STIFFNESS·ω0²·I at every experiment's bias.
 EPS_STIFFNESS = 1e-6
+
+
+def noise_weights(
+    dataset: xr.Dataset, experiment: np.ndarray, frequency: np.ndarray
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Each point's noise variance and the weight of its equation errors (module docstring).
+
+    Parameters
+    ----------
+    dataset : xarray.Dataset
+        Validated data, with or without ``noise_var``.
+    experiment, frequency : ndarray of int
+        The points: indices into the data set's ``experiment`` and ``frequency``.
+
+    Returns
+    -------
+    variance : ndarray or None
+        Per point, the mean of its four channels' ``noise_var``; ``None`` unless every point
+        has a finite, positive one.
+    weights : ndarray or None
+        ``v^{-1/2}`` normalised to a mean square of 1; ``None`` (no weighting) without
+        ``variance`` or when every point's variance is the same.
+    """
+    if "noise_var" not in dataset:
+        return None, None
+    table = np.asarray(dataset["noise_var"].transpose(*RESPONSE_DIMS).values, dtype=float)
+    variance = table[experiment, frequency].mean(axis=(1, 2))
+    if not variance.size or not np.all(np.isfinite(variance) & (variance > 0)):
+        return None, None
+    if np.all(variance == variance[0]):
+        return variance, None
+    weights = 1.0 / np.sqrt(variance)
+    return variance, weights / np.sqrt(np.mean(weights**2))
 
 
 class FitProblem:
@@ -141,6 +190,9 @@ class FitProblem:
         if self.layout.quadratic:
             check_rank_condition(self.bias, self.structure_potential, self.electrodes, True)
         self.scaling = Scaling.from_data(self.omega, self.w, self.psi, self.experiment)
+        #: Every point's noise variance (mean over its channels; None unless every point has
+        #: one) and the weight of its equation errors (None: all equal), see the module doc.
+        self.noise_variance, self.weights = noise_weights(dataset, k_idx, q_idx)
         self.G = self._operator()
 
     @property
@@ -167,7 +219,10 @@ class FitProblem:
         return self.scaling.scaled_q(self.w)
 
     def _operator(self) -> np.ndarray:
-        """``G`` with shape ``(N, 8, n)``: rows Re E11..E22 then Im E11..E22."""
+        """``G`` with shape ``(N, 8, n)``: rows Re E11..E22 then Im E11..E22.
+
+        Each point's rows are multiplied by its noise weight, if any (``weights``).
+        """
         s, lay = self.scaling, self.layout
         n_pts = self.n_points
         big_omega = self.omega / s.omega0
@@ -215,17 +270,20 @@ class FitProblem:
                 g[:, r, col, sl.start + e] = factor
                 g[:, r, col, sl.start + 4 + e] = 1j * factor
         flat = g.reshape(n_pts, 4, lay.n)
-        return np.ascontiguousarray(np.concatenate([flat.real, flat.imag], axis=1))
+        rows = np.concatenate([flat.real, flat.imag], axis=1)
+        if self.weights is not None:
+            rows *= self.weights[:, None, None]
+        return np.ascontiguousarray(rows)
 
     # ----------------------------------------------------------------- evaluation
     def errors(self, theta: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
-        """Complex equation errors ``(N, 2, 2)`` in scaled units at ``theta``."""
+        """Complex equation errors ``(N, 2, 2)`` in scaled units at ``theta`` (weighted)."""
         g = self.G if points is None else self.G[points]
         e = g @ theta
         return (e[:, :4] + 1j * e[:, 4:]).reshape(-1, 2, 2)
 
     def residuals(self, theta: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
-        """σ̄(E) at every data point (scaled units)."""
+        """σ̄(E) at every data point (scaled units, weighted)."""
         return sigma_max_2x2(self.errors(theta, points))
 
     @cached_property
