@@ -167,8 +167,9 @@ def _scaled_data(problem: FitProblem) -> dict[str, np.ndarray]:
 
 def _noise_weights(problem: FitProblem) -> np.ndarray | None:
     """Each point's weight ``v^{-1/2}`` normalised to mean square 1, ``v`` the mean of its
-    channels' ``noise_var``; None without a positive variance at every point or when they are
-    all equal (docs/fitting.md, "Noise weights")."""
+    sweep's ``noise_var`` over the measured points and channels; None without a positive
+    variance at every point, or when the sweeps' variances differ by a factor of at most 1.5
+    (docs/fitting.md, "Noise weights")."""
     from sysid_core.data.schema import measured_mask
 
     ds = problem.dataset
@@ -176,9 +177,13 @@ def _noise_weights(problem: FitProblem) -> np.ndarray | None:
         return None
     mask = measured_mask(ds)
     table = np.asarray(ds["noise_var"].values, dtype=float)
-    v = np.concatenate([table[k][mask[k]].mean(axis=(1, 2)) for k in range(mask.shape[0])])
-    if not np.all(np.isfinite(v) & (v > 0)) or np.all(v == v[0]):
+    per_point = [table[k][mask[k]].mean(axis=(1, 2)) for k in range(mask.shape[0])]
+    if not all(np.all(np.isfinite(p) & (p > 0)) for p in per_point):
         return None
+    pooled = np.array([p.mean() for p in per_point])
+    if pooled.max() <= 1.5 * pooled.min():
+        return None
+    v = np.concatenate([np.full(p.size, q) for p, q in zip(per_point, pooled, strict=True)])
     w = 1.0 / np.sqrt(v)
     return w / np.sqrt(np.mean(w**2))
 

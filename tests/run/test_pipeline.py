@@ -293,17 +293,16 @@ def reference_run(tmp_path_factory: pytest.TempPathFactory):
     cfg = load_config(_resume_config(tmp))
     device = RecordingCloverleaf(seed=1)
     summary = TuningRun(cfg, tmp / "ref", device=device, plots=False).run()
-    # 3 identification experiments; iteration 1's verification (its window misses a mode's
-    # edge, so the whole band locates them and a window around them verifies); the 3
-    # experiments of iteration 2 (the first one is call RESUME_FAILS_ON); its verification
-    assert summary.iterations == 2 and len(device.calls) == 10
+    # 3 identification experiments, iteration 1's verification, the 3 experiments of
+    # iteration 2 (the first one is call RESUME_FAILS_ON), its verification
+    assert summary.iterations == 2 and len(device.calls) == 8
     assert device.calls[RESUME_FAILS_ON - 1][3] == 121  # the first of iteration 2's design
     return summary, device.calls
 
 
 #: The call on which the interrupted runs fail: the first of iteration 2 (a resume crosses the
 #: iteration boundary), after RESUME_FAILS_ON - 1 saved measurements.
-RESUME_FAILS_ON = 7
+RESUME_FAILS_ON = 5
 
 
 def test_device_failure_then_resume(tmp_path: Path, registry: Registry, reference_run) -> None:
@@ -336,7 +335,7 @@ def test_device_failure_then_resume(tmp_path: Path, registry: Registry, referenc
     assert resumed.split_hz == pytest.approx(reference.split_hz, abs=1e-9)
     assert device.calls == reference_calls[saved:]  # the stored ones are read, not measured
     assert sum("measured earlier" in m for m in messages) == saved
-    assert resumed.experiments == reference.experiments == 10
+    assert resumed.experiments == reference.experiments == 8
 
 
 def test_resume_from_the_command_line(
@@ -360,7 +359,7 @@ def test_resume_from_the_command_line(
     np.testing.assert_allclose(result["bias"], expected.bias, rtol=0, atol=1e-9)
     created = RecordingCloverleaf.instances
     assert len(created) == 2  # one per invocation; the first refused before measuring
-    assert created[0].calls == [] and len(created[1].calls) == 10 - (RESUME_FAILS_ON - 1)
+    assert created[0].calls == [] and len(created[1].calls) == 8 - (RESUME_FAILS_ON - 1)
 
 
 def test_resume_refuses_another_configuration(tmp_path: Path) -> None:
