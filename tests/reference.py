@@ -17,7 +17,9 @@ the scaled data of a :class:`~sysid_core.identification.problem.FitProblem`:
     E_i = \\tilde P(\\nu_i) - \\tilde\\psi_i \\tilde Z_i \\ (\\texttt{act})\\quad\\text{or}\\quad
     E_i = \\tilde P(\\nu_i) - \\tilde Z_i \\tilde\\psi_i \\ (\\texttt{sen}),
 
-with :math:`\\Omega = \\omega/\\omega_0`, :math:`\\delta = \\Omega^2 - 1`,
+each multiplied by the point's noise weight :math:`w_i` when the data carry ``noise_var``
+(computed here from the data set, not taken from the problem), with
+:math:`\\Omega = \\omega/\\omega_0`, :math:`\\delta = \\Omega^2 - 1`,
 :math:`\\nu = (\\omega - \\omega_0)/h` and
 :math:`\\tilde\\psi = \\psi\\,\\omega_0^2\\varepsilon/s_\\psi` (the constants of
 :class:`~sysid_core.identification.problem.Scaling`). Only the scaling constants and the data are
@@ -163,6 +165,29 @@ def _scaled_data(problem: FitProblem) -> dict[str, np.ndarray]:
     }
 
 
+def _noise_weights(problem: FitProblem) -> np.ndarray | None:
+    """Each point's weight ``v^{-1/2}`` normalised to mean square 1, ``v`` the mean of its
+    sweep's ``noise_var`` over the measured points and channels; None without a positive
+    variance at every point, or when the sweeps' variances differ by a factor of at most 1.5
+    (docs/fitting.md, "Noise weights")."""
+    from sysid_core.data.schema import measured_mask
+
+    ds = problem.dataset
+    if "noise_var" not in ds:
+        return None
+    mask = measured_mask(ds)
+    table = np.asarray(ds["noise_var"].values, dtype=float)
+    per_point = [table[k][mask[k]].mean(axis=(1, 2)) for k in range(mask.shape[0])]
+    if not all(np.all(np.isfinite(p) & (p > 0)) for p in per_point):
+        return None
+    pooled = np.array([p.mean() for p in per_point])
+    if pooled.max() <= 1.5 * pooled.min():
+        return None
+    v = np.concatenate([np.full(p.size, q) for p, q in zip(per_point, pooled, strict=True)])
+    w = 1.0 / np.sqrt(v)
+    return w / np.sqrt(np.mean(w**2))
+
+
 def _check_side(problem: FitProblem) -> str:
     """``"output"`` (``act``) or ``"input"`` (``sen``); other structures are not supported."""
     side = problem.structure.side
@@ -194,7 +219,15 @@ def _stacked_errors(problem: FitProblem, u: _Unknowns) -> cp.Expression:
     else:  # E_i = P~(nu_i) - Z~_i psi~_i, stacked horizontally
         poly = [p @ np.kron((d["nu"] ** deg)[None, :], eye) for deg, p in enumerate(u.P)]
         prod = [x @ np.concatenate(list(c[:, None, None] * psi), axis=1) for c, x in z_terms]
-    return sum(poly[1:], start=poly[0]) - sum(prod[1:], start=prod[0])
+    errors = sum(poly[1:], start=poly[0]) - sum(prod[1:], start=prod[0])
+    w = _noise_weights(problem)
+    if w is None:
+        return errors
+    per_row = np.repeat(w, 2)  # each point's two rows (act) or columns (sen)
+    scale = per_row[:, None] * np.ones((1, 2)) if side == "output" else np.ones((2, 1)) * per_row
+    import cvxpy as cp
+
+    return cp.multiply(scale, errors)
 
 
 def _block(problem: FitProblem, stacked: cp.Expression, i: int) -> cp.Expression:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
@@ -23,7 +24,15 @@ from sysid_simgyro.options import (
 from sysid_simgyro.params import GyroParameterSet
 from sysid_simgyro.physics import TWO_PI
 
-__all__ = ["ParametrizedGyro", "SimulatedGyro"]
+__all__ = ["NOISE_SUBSAMPLES", "ParametrizedGyro", "SimulatedGyro"]
+
+#: Sub-integrations per acquisition from whose spread the reported ``noise_var`` is estimated
+#: (as a lock-in estimates it from its sample buffer).
+NOISE_SUBSAMPLES = 16
+#: Mixed into the seed of each measurement's noise-estimate generator
+#: (:meth:`SimulatedGyro.noise_estimate`), which is derived from the response noise
+#: generator's state without drawing from it.
+NOISE_ESTIMATE_STREAM = 2
 
 
 class SimulatedGyro:
@@ -68,7 +77,9 @@ class SimulatedGyro:
         Resolution of the bias DAC over ``bias_limits``; 0 applies the bias exactly.
     seed : int or None
         Seed of the noise generator: the same seed gives identical measurement sequences;
-        successive :meth:`measure` calls draw new noise.
+        successive :meth:`measure` calls draw new noise. The reported noise variances
+        (``noise_var``) come from a generator of their own (:meth:`noise_estimate`): the
+        responses are those of a device that reports none.
     bench : mapping or BenchSettings, optional
         The ``[device.bench]`` table: a clock and slow drifts (:mod:`sysid_simgyro.bench`).
         Default: a frozen bench (no time, no drift), as a simulation without a bench.
@@ -280,8 +291,10 @@ class SimulatedGyro:
         xarray.DataArray
             Complex, dims ``("frequency", "output", "input")``, coordinates ``frequency`` (Hz,
             exactly the requested values), ``output`` ``["y1", "y2"]``, ``input``
-            ``["u1", "u2"]`` and, on a bench with a clock, ``time_s`` (seconds, each point's
-            time stamp); attributes ``device``, ``units``, ``bias`` and ``applied_bias``.
+            ``["u1", "u2"]``, on a bench with a clock ``time_s`` (seconds, each point's
+            time stamp) and, with noise, ``noise_var`` (dims ``frequency``, ``output``,
+            ``input``: each entry's noise variance as measured, :meth:`noise_estimate`);
+            attributes ``device``, ``units``, ``bias`` and ``applied_bias``.
 
         Raises
         ------
@@ -305,13 +318,20 @@ class SimulatedGyro:
         response = response + self.background_response(f)
         if self.bench is not None:  # the analyzer's gain and phase: on all it measures
             response = response * self.bench.sweep_factor()
+        noise_var = None
         if self.noise_std > 0:
+            noise_var = self.noise_estimate(f.size)
             scale = self.noise_std / np.sqrt(2.0) * np.sqrt(self.tones_shared(f.size))
             scale = scale[:, None, None]
             response = response + scale * (
                 self._rng.standard_normal(response.shape)
                 + 1j * self._rng.standard_normal(response.shape)
             )
+        extra: dict[str, Any] = {}
+        if times is not None:
+            extra["time_s"] = ("frequency", times, {"units": "s"})
+        if noise_var is not None:
+            extra["noise_var"] = (("frequency", "output", "input"), noise_var, {"units": "(V/V)^2"})
         return xr.DataArray(
             response,
             dims=("frequency", "output", "input"),
@@ -319,7 +339,7 @@ class SimulatedGyro:
                 "frequency": ("frequency", f, {"units": "Hz"}),
                 "output": ["y1", "y2"],
                 "input": ["u1", "u2"],
-                **({} if times is None else {"time_s": ("frequency", times, {"units": "s"})}),
+                **extra,
             },
             name="response",
             attrs={
@@ -329,6 +349,31 @@ class SimulatedGyro:
                 "applied_bias": applied.tolist(),
             },
         )
+
+    def noise_variance(self, n_points: int) -> np.ndarray:
+        """The true variance ``E|n|²`` of each entry's noise at each of ``n_points`` points
+        measured together: ``noise_std² · k``, ``k`` from :meth:`tones_shared`."""
+        return self.noise_std**2 * self.tones_shared(n_points)
+
+    def noise_estimate(self, n_points: int) -> np.ndarray:
+        """Each entry's noise variance as a lock-in measures it, ``(n_points, 2, 2)``.
+
+        A lock-in averages :data:`NOISE_SUBSAMPLES` sub-integrations ``x_j`` per point and
+        reports the variance of their mean, ``Σ|x_j − x̄|² / (m (m − 1))``: with complex
+        Gaussian noise that is the true variance (:meth:`noise_variance`) times
+        ``χ²(2(m − 1)) / (2(m − 1))``, independent of the mean (the response).
+
+        Drawn from a generator seeded by the response noise generator's current state (read,
+        not advanced) and :data:`NOISE_ESTIMATE_STREAM`: the responses are exactly those of a
+        device that reports no variances, and whoever reseeds the response noise (a test
+        that makes it a function of the bias and grid) reseeds the estimates with it.
+        """
+        state = repr(self._rng.bit_generator.state).encode()
+        key = int.from_bytes(hashlib.sha256(state).digest()[:16], "little")
+        rng = np.random.default_rng([key, NOISE_ESTIMATE_STREAM])
+        dof = 2 * (NOISE_SUBSAMPLES - 1)
+        true = self.noise_variance(n_points)[:, None, None]
+        return true * rng.chisquare(dof, size=(n_points, 2, 2)) / dof
 
     def tones_shared(self, n_points: int) -> np.ndarray:
         """How many tones share each point's acquisition (``n_points`` frequencies measured

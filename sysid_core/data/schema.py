@@ -7,6 +7,12 @@ Schema of a data set (an :class:`xarray.Dataset`):
 * ``measured``: bool, dims ``(experiment, frequency)``, optional. Experiments may use different
   frequency grids (the paper's ``m_k`` points each); the ``frequency`` coordinate is then the union
   of the grids and ``measured`` marks which points experiment ``k`` has. Unmeasured points hold NaN.
+* ``time_s``: float, dims ``(experiment, frequency)``, optional: each point's time stamp
+  (seconds, the device's clock), NaN where unknown or unmeasured.
+* ``noise_var``: float, dims ``(experiment, frequency, output, input)``, optional: the device's
+  estimate of the variance ``E|n|²`` of each complex response entry's noise (response units
+  squared), NaN where unknown or unmeasured. The fit weights its points by it when every point
+  has one (:class:`~sysid_core.identification.problem.FitProblem`).
 * coordinates: ``experiment`` (int), ``frequency`` (Hz, strictly increasing), ``output``,
   ``input``, ``electrode`` (names) and ``bias`` (volts relative to ground, dims
   ``(experiment, electrode)``).
@@ -44,6 +50,7 @@ __all__ = [
     "load_dataset",
     "make_dataset",
     "measured_mask",
+    "point_noise",
     "point_times",
     "read_netcdf",
     "requested_bias",
@@ -66,6 +73,7 @@ def make_dataset(
     inputs: Sequence[str] = ("u1", "u2"),
     response_units: str = "V/V",
     times_s: Sequence[np.ndarray | None] | None = None,
+    noise_var: Sequence[np.ndarray | None] | None = None,
 ) -> xr.Dataset:
     """Build a data set from per-experiment responses.
 
@@ -88,6 +96,12 @@ def make_dataset(
         clock), or ``None`` for an experiment measured at unknown times. Stored as the
         variable ``time_s`` (``experiment``, ``frequency``; NaN where unknown or unmeasured)
         when any experiment has them.
+    noise_var : sequence of (ndarray or None), optional
+        Per experiment, the estimated variance ``E|n|²`` of each response entry's noise at each
+        point of its grid, shape ``(m_k, n_out, n_in)`` like its response (NaN: unknown), or
+        ``None`` for an experiment whose noise is unknown. Stored as the variable ``noise_var``
+        (``experiment``, ``frequency``, ``output``, ``input``; NaN where unknown or unmeasured)
+        when any experiment has one.
 
     Returns
     -------
@@ -145,6 +159,10 @@ def make_dataset(
     if times_s is not None and any(t is not None for t in times_s):
         ds["time_s"] = (("experiment", "frequency"), _time_table(times_s, grids, union, same))
         ds["time_s"].attrs["units"] = "s"
+    if noise_var is not None and any(v is not None for v in noise_var):
+        table = _noise_table(noise_var, grids, union, same, (n_out, n_in))
+        ds["noise_var"] = (RESPONSE_DIMS, table)
+        ds["noise_var"].attrs["units"] = f"({response_units})^2"
     return ds
 
 
@@ -171,6 +189,50 @@ def _time_table(
     return table
 
 
+def _noise_table(
+    noise_var: Sequence[np.ndarray | None],
+    grids: Sequence[np.ndarray],
+    union: np.ndarray,
+    same: bool,
+    channels: tuple[int, int],
+) -> np.ndarray:
+    """The ``noise_var`` variable: each experiment's variances at its grid's places, else NaN."""
+    if len(noise_var) != len(grids):
+        raise DimensionError(f"{len(grids)} experiments but {len(noise_var)} noise-variance arrays")
+    table = np.full((len(grids), union.size, *channels), np.nan)
+    for k, (var, grid) in enumerate(zip(noise_var, grids, strict=True)):
+        if var is None:
+            continue
+        v = np.asarray(var)
+        if np.iscomplexobj(v):
+            raise DimensionError(f"experiment {k}: noise_var must be real (a variance)")
+        if v.shape != (grid.size, *channels):
+            raise DimensionError(
+                f"experiment {k}: noise_var has shape {v.shape}; expected "
+                f"({grid.size}, {channels[0]}, {channels[1]}) (frequency, output, input)"
+            )
+        pos = np.arange(grid.size) if same else np.searchsorted(union, grid)
+        table[k, pos] = v.astype(float)
+    return table
+
+
+def point_noise(ds: xr.Dataset, k: int) -> np.ndarray | None:
+    """Experiment ``k``'s noise variances at its measured points, ``(m_k, n_out, n_in)``, or None.
+
+    ``None`` when the data set has no ``noise_var`` or experiment ``k`` has none at any point;
+    NaN entries (unknown) are kept.
+    """
+    if "noise_var" not in ds:
+        return None
+    if set(ds["noise_var"].dims) != set(RESPONSE_DIMS):
+        raise DimensionError(
+            f"'noise_var' has dims {ds['noise_var'].dims}; expected {RESPONSE_DIMS}"
+        )
+    var = np.asarray(ds["noise_var"].transpose(*RESPONSE_DIMS).values[k], dtype=float)
+    var = var[measured_mask(ds)[k]]
+    return var if np.any(~np.isnan(var)) else None
+
+
 def point_times(ds: xr.Dataset, k: int) -> np.ndarray | None:
     """Experiment ``k``'s time stamps at its measured points (seconds), or ``None``.
 
@@ -194,7 +256,9 @@ def experiment_from_measurement(
     The experiment's ``bias`` is what the gyro really saw: the measurement's ``applied_bias``
     attribute when the device reports one (a DAC's nearest code, a source's read-back) with one
     finite value per electrode, else the requested ``bias``. The requested bias is kept in the
-    attribute ``requested_bias`` (a resumed run finds its measurements by it).
+    attribute ``requested_bias`` (a resumed run finds its measurements by it). The optional
+    coordinates ``time_s`` (``frequency``) and ``noise_var`` (``frequency``, ``output``,
+    ``input``) become the variables of the same names.
     """
     if tuple(measurement.dims) != ("frequency", "output", "input"):
         raise DimensionError(
@@ -222,9 +286,23 @@ def experiment_from_measurement(
             if "time_s" in measurement.coords
             else None
         ],
+        noise_var=[_measurement_noise(measurement)],
     )
     ds.attrs["requested_bias"] = requested.tolist()
     return ds
+
+
+def _measurement_noise(measurement: xr.DataArray) -> np.ndarray | None:
+    """A measurement's ``noise_var`` coordinate as ``(frequency, output, input)``, or None."""
+    if "noise_var" not in measurement.coords:
+        return None
+    var = measurement.coords["noise_var"]
+    if set(var.dims) != {"frequency", "output", "input"}:
+        raise DimensionError(
+            f"a measurement's noise_var must have dims ('frequency', 'output', 'input'), got "
+            f"{var.dims}"
+        )
+    return np.asarray(var.transpose("frequency", "output", "input").values)
 
 
 def requested_bias(ds: xr.Dataset) -> np.ndarray:
@@ -238,13 +316,15 @@ def concat_experiments(datasets: Sequence[xr.Dataset]) -> xr.Dataset:
     """Join data sets experiment-wise (grids may differ); metadata come from the first one.
 
     An ``epoch`` coordinate (per experiment: when it was measured, see
-    :mod:`sysid_core.identification.problem`) is kept when every data set has one.
+    :mod:`sysid_core.identification.problem`) is kept when every data set has one. The
+    variables ``time_s`` and ``noise_var`` are kept (NaN for the experiments without them).
     """
     if not datasets:
         raise DataError("no data sets to join")
     first = datasets[0]
     responses, grids, biases = [], [], []
     times: list[np.ndarray | None] = []
+    noise: list[np.ndarray | None] = []
     for ds in datasets:
         mask = measured_mask(ds)
         f = ds["frequency"].values
@@ -253,6 +333,7 @@ def concat_experiments(datasets: Sequence[xr.Dataset]) -> xr.Dataset:
             grids.append(f[mask[k]])
             biases.append(ds["bias"].values[k])
             times.append(point_times(ds, k))
+            noise.append(point_noise(ds, k))
     joined = make_dataset(
         responses,
         grids,
@@ -264,6 +345,7 @@ def concat_experiments(datasets: Sequence[xr.Dataset]) -> xr.Dataset:
         inputs=[str(i) for i in first["input"].values],
         response_units=str(first.attrs.get("response_units", "V/V")),
         times_s=times,
+        noise_var=noise,
     )
     if all("epoch" in ds.coords for ds in datasets):
         epochs = np.concatenate([np.asarray(ds["epoch"].values, dtype=int) for ds in datasets])

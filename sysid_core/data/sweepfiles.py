@@ -170,7 +170,7 @@ def _read_nc(path: Path) -> xr.DataArray:
         ds = load_dataset(path)
     except DataError as exc:
         raise FileFormatError(str(exc)) from exc
-    names = [str(v) for v in ds.data_vars if str(v) not in ("measured", "time_s")]
+    names = [str(v) for v in ds.data_vars if str(v) not in ("measured", "time_s", "noise_var")]
     name = "response" if "response" in names else (names[0] if len(names) == 1 else None)
     if name is None:
         raise FileFormatError(

@@ -122,12 +122,15 @@ def validate(ds: xr.Dataset) -> xr.Dataset:
     Rejects, each with its own error class and a message saying what and where: NaN/inf values,
     wrong dims or shapes, non-increasing or duplicate frequencies, missing biases, an experiment
     whose response is all zero or of absurd magnitude (beyond 1e±100), fewer than ``n_e + 1``
-    experiments, and designs that violate the rank condition (6).
+    experiments, designs that violate the rank condition (6), and an optional ``noise_var``
+    with other dims, complex values, or a negative or infinite variance at a measured point
+    (NaN there means unknown).
     """
     resp = _check_response(ds)
     f = _check_frequencies(ds)
     bias, electrodes, vg = _check_bias(ds)
     _check_values(ds, resp, f)
+    _check_noise(ds, f)
     check_rank_condition(bias, vg, electrodes)
     return ds
 
@@ -220,6 +223,33 @@ def _check_values(ds: xr.Dataset, resp: xr.DataArray, f: np.ndarray) -> None:
     if empty.size:
         raise FrequencyGridError(f"experiment {empty[0]} has fewer than 2 measured points")
     _check_magnitudes(values, mask)
+
+
+def _check_noise(ds: xr.Dataset, f: np.ndarray) -> None:
+    """The optional ``noise_var``: real, the response's dims, finite and >= 0 or NaN (unknown)."""
+    if "noise_var" not in ds:
+        return
+    var = ds["noise_var"]
+    if tuple(var.dims) != RESPONSE_DIMS:
+        raise DimensionError(f"'noise_var' has dims {tuple(var.dims)}; expected {RESPONSE_DIMS}")
+    if var.dtype.kind not in "iuf":
+        raise DimensionError(f"'noise_var' must be real (a variance), got dtype {var.dtype}")
+    if var.shape != ds["response"].shape:
+        raise DimensionError(
+            f"'noise_var' has shape {var.shape}; expected that of 'response', "
+            f"{ds['response'].shape}"
+        )
+    values = np.asarray(var.values, dtype=float)
+    known = measured_mask(ds)[:, :, None, None] & ~np.isnan(values)
+    bad = np.argwhere(known & ~(np.isfinite(values) & (values >= 0)))
+    if bad.size:
+        k, q, o, i = bad[0]
+        cls = NonFiniteDataError if np.isinf(values[k, q, o, i]) else DataError
+        raise cls(
+            f"noise_var of experiment {k} at {f[q]} Hz (output {o}, input {i}) is "
+            f"{values[k, q, o, i]}: a noise variance must be finite and >= 0 (NaN: unknown); "
+            f"{len(bad)} value(s) in all"
+        )
 
 
 def _check_magnitudes(values: np.ndarray, mask: np.ndarray) -> None:

@@ -9,7 +9,8 @@ Every call a run makes to a device goes through :class:`GuardedDevice`:
   guard refuses every further call on that device object;
 * the answer is checked (:func:`check_answer`): a complex, finite ``DataArray`` with dims
   ``("frequency", "output", "input")``, 2×2, on exactly the requested frequencies, with the same
-  channel labels as the device's earlier answers, and not all zero.
+  channel labels as the device's earlier answers, and not all zero; its optional coordinates
+  ``time_s`` (finite stamps) and ``noise_var`` (variances, each finite and >= 0 or NaN) too.
 """
 
 from __future__ import annotations
@@ -110,7 +111,33 @@ def check_answer(
     _check_frequencies(checked, f)
     _check_labels(checked, labels)
     _check_times(checked)
+    _check_noise(checked)
     return checked
+
+
+def _check_noise(answer: xr.DataArray) -> None:
+    """Check the optional ``noise_var``: a real variance per entry, finite and >= 0, or NaN.
+
+    NaN says the device does not know that entry's noise.
+    """
+    if "noise_var" not in answer.coords:
+        return
+    var = answer.coords["noise_var"]
+    if set(var.dims) != set(_DIMS):
+        raise InvalidAnswerError(
+            f"the device's noise_var coordinate has dims {var.dims}; expected {_DIMS}: one "
+            "variance per point and channel"
+        )
+    values = np.asarray(var.values)
+    if values.dtype.kind not in "iuf":
+        raise InvalidAnswerError(
+            f"the device's noise_var is {values.dtype}, not real: a variance is a real number"
+        )
+    values = values.astype(float)
+    if np.any(np.isinf(values) | (values < 0)):
+        raise InvalidAnswerError(
+            "the device's noise_var must be finite and >= 0 (a variance; NaN: unknown)"
+        )
 
 
 def _check_times(answer: xr.DataArray) -> None:

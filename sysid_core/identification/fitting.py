@@ -308,8 +308,10 @@ def model_from_problem(problem: FitProblem, result: ObjectiveResult, **meta: obj
 
     The inverse of the scaling of :mod:`.problem`. The model's channel names are the
     data set's ``output`` and ``input`` coordinates; ``meta`` is added to the model's ``meta``
-    (e.g. the solver's name and the fit time). The map is linear in ``result.theta``; a fit
-    normalises the scale first (:func:`unit_mass`).
+    (e.g. the solver's name and the fit time), after the fit's own facts, among them
+    ``noise_weights`` (whether the points were weighted by their noise variance, see
+    :class:`~sysid_core.identification.problem.FitProblem`). The map is linear in
+    ``result.theta``; a fit normalises the scale first (:func:`unit_mass`).
     """
     self = problem
     coords = self.dataset.coords
@@ -385,6 +387,7 @@ def model_from_problem(problem: FitProblem, result: ObjectiveResult, **meta: obj
             "device": str(self.dataset.attrs.get("device", "unknown")),
             "band_hz": [float(self.frequency_hz.min()), float(self.frequency_hz.max())],
             "fit_bias": self.bias.tolist(),
+            "noise_weights": self.weights is not None,
             **meta,
         },
         stiffness_factor=factor,

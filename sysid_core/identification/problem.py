@@ -23,6 +23,15 @@ centring removes the near-cancellation of :math:`M\omega^2` and :math:`K_0`.
 
 The scaled unknowns form the vector :math:`\theta` (layout in :class:`ParameterLayout`), and the
 equation error at every data point is linear in it: :math:`E_i = G_i\theta`.
+
+Noise weights: when every data point has a noise variance (the data set's ``noise_var``,
+:mod:`sysid_core.data.schema`), point :math:`i`'s rows are multiplied by
+:math:`w_i = v_i^{-1/2}`, :math:`v_i` the mean of its four channels' variances, normalised so
+that :math:`\operatorname{mean}_i w_i^2 = 1`: a response's noise :math:`n` enters the equation
+error as :math:`n Z` (or :math:`Z n`), so a point's equation-error noise is proportional to its
+response noise, and the weighted errors have the same noise level everywhere. Equal variances
+(or a point without one) leave the rows as they are. Everything computed from ``G`` (the
+objectives, ``gram``, ``residuals``, the covariance) sees the weighted problem.
 """
 
 from __future__ import annotations
@@ -33,19 +42,76 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.conic.program import SYM_BASIS, sigma_max_2x2
-from sysid_core.data.schema import measured_mask, squared_potentials
+from sysid_core.data.schema import RESPONSE_DIMS, measured_mask, squared_potentials
 from sysid_core.data.validation import check_rank_condition, validate
 from sysid_core.errors import DataError
 from sysid_core.identification.scaling import ParameterLayout, Scaling
 from sysid_core.model.structures import ModelStructure
 
-__all__ = ["EPS_DAMPING", "EPS_STIFFNESS", "FitProblem", "ParameterLayout", "Scaling"]
+__all__ = [
+    "EPS_DAMPING",
+    "EPS_STIFFNESS",
+    "FitProblem",
+    "ParameterLayout",
+    "Scaling",
+    "noise_weights",
+]
 
 #: Strict inequality C > 0 becomes C ⪰ EPS_DAMPING·ω0·ε·I (scaled: C̃ ⪰ EPS_DAMPING·I);
 #: it bounds Q below about 1/(ε·EPS_DAMPING) ≈ 1e9 for a 1.4 % band.
 EPS_DAMPING = 1e-8
 #: Strict inequality K(w_k) > 0 becomes K(w_k) ⪰ EPS_STIFFNESS·ω0²·I at every experiment's bias.
 EPS_STIFFNESS = 1e-6
+
+
+def noise_weights(
+    dataset: xr.Dataset, experiment: np.ndarray, frequency: np.ndarray
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Each point's noise variance and the weight of its equation errors (module docstring).
+
+    The variance of a sweep is pooled over its points and channels (an estimate from a few
+    hundred degrees of freedom or more, a few per cent from its truth), and the sweeps are
+    weighted only when the data say their noise differs: the largest pooled variance over
+    the smallest above :data:`VARIANCE_RATIO`. Sweeps of the same noise are then fitted
+    exactly as without ``noise_var`` (weights drawn from estimates of equal variances would
+    only add their scatter).
+
+    Parameters
+    ----------
+    dataset : xarray.Dataset
+        Validated data, with or without ``noise_var``.
+    experiment, frequency : ndarray of int
+        The points: indices into the data set's ``experiment`` and ``frequency``.
+
+    Returns
+    -------
+    variance : ndarray or None
+        Per point, its sweep's pooled ``noise_var``; ``None`` unless every point has a
+        finite, positive one.
+    weights : ndarray or None
+        ``v^{-1/2}`` normalised to a mean square of 1 over the points; ``None`` (no weighting)
+        without ``variance`` or when the sweeps' variances differ by less than
+        :data:`VARIANCE_RATIO`.
+    """
+    if "noise_var" not in dataset:
+        return None, None
+    table = np.asarray(dataset["noise_var"].transpose(*RESPONSE_DIMS).values, dtype=float)
+    point = table[experiment, frequency].mean(axis=(1, 2))
+    if not point.size or not np.all(np.isfinite(point) & (point > 0)):
+        return None, None
+    sweeps = np.unique(experiment)
+    pooled = np.array([point[experiment == k].mean() for k in sweeps])
+    variance = pooled[np.searchsorted(sweeps, experiment)]
+    if pooled.max() <= VARIANCE_RATIO * pooled.min():
+        return variance, None
+    weights = 1.0 / np.sqrt(variance)
+    return variance, weights / np.sqrt(np.mean(weights**2))
+
+
+#: Sweeps are weighted by their noise only when their pooled variances differ by more than
+#: this factor (a sweep of 11 points from 16 sub-samples per point has a pooled estimate
+#: within a few per cent of its truth; √2 more noise in one sweep is a factor of 2).
+VARIANCE_RATIO = 1.5
 
 
 class FitProblem:
@@ -141,6 +207,9 @@ class FitProblem:
         if self.layout.quadratic:
             check_rank_condition(self.bias, self.structure_potential, self.electrodes, True)
         self.scaling = Scaling.from_data(self.omega, self.w, self.psi, self.experiment)
+        #: Every point's noise variance (mean over its channels; None unless every point has
+        #: one) and the weight of its equation errors (None: all equal), see the module doc.
+        self.noise_variance, self.weights = noise_weights(dataset, k_idx, q_idx)
         self.G = self._operator()
 
     @property
@@ -167,7 +236,10 @@ class FitProblem:
         return self.scaling.scaled_q(self.w)
 
     def _operator(self) -> np.ndarray:
-        """``G`` with shape ``(N, 8, n)``: rows Re E11..E22 then Im E11..E22."""
+        """``G`` with shape ``(N, 8, n)``: rows Re E11..E22 then Im E11..E22.
+
+        Each point's rows are multiplied by its noise weight, if any (``weights``).
+        """
         s, lay = self.scaling, self.layout
         n_pts = self.n_points
         big_omega = self.omega / s.omega0
@@ -215,17 +287,20 @@ class FitProblem:
                 g[:, r, col, sl.start + e] = factor
                 g[:, r, col, sl.start + 4 + e] = 1j * factor
         flat = g.reshape(n_pts, 4, lay.n)
-        return np.ascontiguousarray(np.concatenate([flat.real, flat.imag], axis=1))
+        rows = np.concatenate([flat.real, flat.imag], axis=1)
+        if self.weights is not None:
+            rows *= self.weights[:, None, None]
+        return np.ascontiguousarray(rows)
 
     # ----------------------------------------------------------------- evaluation
     def errors(self, theta: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
-        """Complex equation errors ``(N, 2, 2)`` in scaled units at ``theta``."""
+        """Complex equation errors ``(N, 2, 2)`` in scaled units at ``theta`` (weighted)."""
         g = self.G if points is None else self.G[points]
         e = g @ theta
         return (e[:, :4] + 1j * e[:, 4:]).reshape(-1, 2, 2)
 
     def residuals(self, theta: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
-        """σ̄(E) at every data point (scaled units)."""
+        """σ̄(E) at every data point (scaled units, weighted)."""
         return sigma_max_2x2(self.errors(theta, points))
 
     @cached_property

@@ -6,6 +6,7 @@ from the scaled data, never from ``FitProblem.G``; here the two must agree:
 * the equation errors at a random ``theta`` (no solve: checks the operator ``G`` entry by entry);
 * the optimal γ of the full minimax program (Clarabel backend) and of the cvxpy LMI program;
 * the least-squares objective's optimum and minimiser;
+* all three with noise weights (``noise_var``; the reference computes its own weights);
 
 for ``act`` and ``sen`` and polynomial orders 0, 1 and 2. The data are a cloverleaf-like truth
 (three experiments at the paper's biases, 4385-4445 Hz, 0.1 % + 1e-4-of-peak noise) with only
@@ -98,6 +99,38 @@ def test_least_squares_matches_reference(dataset, structure, order):
     assert float(theta_ref @ problem.gram @ theta_ref) == pytest.approx(value_ref, rel=1e-9)
     scale = np.abs(theta_ref).max()
     np.testing.assert_allclose(result.theta, theta_ref, rtol=0, atol=1e-5 * scale)
+
+
+@pytest.fixture(scope="module")
+def weighted(dataset):
+    """The same data with noise variances (``noise_var``): experiment 1 ten times noisier than
+    the others, and every point's estimate scattered as a 16-sample variance's."""
+    var = np.random.default_rng(5).chisquare(30, dataset["response"].shape) / 30 * 1e-8
+    var[1] *= 100.0
+    return dataset.assign(noise_var=(dataset["response"].dims, var))
+
+
+@pytest.mark.parametrize("structure", ["act", "sen"])
+def test_weighted_problem_matches_reference(weighted, structure):
+    """The noise weights (the reference computes its own from the data set): the operator,
+    the least-squares and the minimax optima agree."""
+    problem = make_problem(weighted, structure, 1)
+    assert problem.weights is not None
+    theta = np.random.default_rng(3).standard_normal(problem.n_parameters)
+    want = reference_errors(problem, theta)
+    assert np.abs(problem.errors(theta) - want).max() <= 1e-12 * np.abs(want).max()
+    value_ref, theta_ref = least_squares_reference(problem, **TIGHT)
+    result = LeastSquares().fit(problem, ClarabelSolver())
+    assert float(result.theta @ problem.gram @ result.theta) == pytest.approx(value_ref, rel=1e-6)
+    np.testing.assert_allclose(result.theta, theta_ref, rtol=0, atol=1e-5 * np.abs(theta_ref).max())
+    gamma_ref, _ = minimax_reference(problem)
+    full = Minimax(working_set=False, tie_tol=0).fit(problem, ClarabelSolver())
+    assert full.gamma == pytest.approx(gamma_ref, rel=1e-6)
+    # and the weights matter: the unweighted optimum is another one (by more than ten times
+    # the agreement asked for above)
+    plain = make_problem(weighted.drop_vars("noise_var"), structure, 1)
+    other = LeastSquares().fit(plain, ClarabelSolver())
+    assert np.abs(other.theta - result.theta).max() > 1e-4 * np.abs(theta_ref).max()
 
 
 def test_reference_raises_unless_optimal(dataset):

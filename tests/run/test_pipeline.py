@@ -30,6 +30,7 @@ from truths import write_toml
 import sysid_core.plugin.registry
 from sysid_core import hookimpl
 from sysid_core.cli import main
+from sysid_core.data.schema import load_dataset
 from sysid_core.device.measuring import check_bias
 from sysid_core.errors import (
     BiasLimitError,
@@ -60,7 +61,7 @@ LINEAR_LAW = {"stiffness": "linear"}
 #: ... and the full protocol (every iteration measures its whole design); the default lean
 #: protocol's mechanics: test_lean.
 FULL_PROTOCOL = {"protocol": "full"}
-MEASUREMENT = re.compile(r"(exp\d+|verify(-\d+)?)\.nc")
+MEASUREMENT = re.compile(r"(exp\d+|verify(-\d+|-band)?)\.nc")
 
 
 # ----------------------------------------------------------------------- devices
@@ -292,8 +293,16 @@ def reference_run(tmp_path_factory: pytest.TempPathFactory):
     cfg = load_config(_resume_config(tmp))
     device = RecordingCloverleaf(seed=1)
     summary = TuningRun(cfg, tmp / "ref", device=device, plots=False).run()
+    # 3 identification experiments, iteration 1's verification, the 3 experiments of
+    # iteration 2 (the first one is call RESUME_FAILS_ON), its verification
     assert summary.iterations == 2 and len(device.calls) == 8
+    assert device.calls[RESUME_FAILS_ON - 1][3] == 121  # the first of iteration 2's design
     return summary, device.calls
+
+
+#: The call on which the interrupted runs fail: the first of iteration 2 (a resume crosses the
+#: iteration boundary), after RESUME_FAILS_ON - 1 saved measurements.
+RESUME_FAILS_ON = 5
 
 
 def test_device_failure_then_resume(tmp_path: Path, registry: Registry, reference_run) -> None:
@@ -302,8 +311,14 @@ def test_device_failure_then_resume(tmp_path: Path, registry: Registry, referenc
 
     out = tmp_path / "run"
     with pytest.raises(DeviceError, match="lock-in amplifier"):
-        TuningRun(cfg, out, device=RecordingCloverleaf(fail_on=5, seed=1), plots=False).run()
-    assert len(measurement_files(out)) == 4
+        TuningRun(
+            cfg, out, device=RecordingCloverleaf(fail_on=RESUME_FAILS_ON, seed=1), plots=False
+        ).run()
+    saved = RESUME_FAILS_ON - 1
+    assert len(measurement_files(out)) == saved
+    # every saved measurement keeps the device's noise variances, which the resumed run's
+    # fits weight by as the uninterrupted run's did (the same answer, below)
+    assert all("noise_var" in load_dataset(p) for p in measurement_files(out))
     assert not list(out.rglob("*.tmp"))
     first = json.loads((out / "summary.json").read_text())
     assert first["iterations"] == 1 and len(first["history"]) == 1
@@ -318,8 +333,8 @@ def test_device_failure_then_resume(tmp_path: Path, registry: Registry, referenc
     ).run()
     np.testing.assert_allclose(resumed.bias, reference.bias, rtol=0, atol=1e-9)
     assert resumed.split_hz == pytest.approx(reference.split_hz, abs=1e-9)
-    assert device.calls == reference_calls[4:]  # the 4 stored ones are read, not measured
-    assert sum("measured earlier" in m for m in messages) == 4
+    assert device.calls == reference_calls[saved:]  # the stored ones are read, not measured
+    assert sum("measured earlier" in m for m in messages) == saved
     assert resumed.experiments == reference.experiments == 8
 
 
@@ -331,7 +346,9 @@ def test_resume_from_the_command_line(
     expected, _ = reference_run
     out = tmp_path / "run"
     with pytest.raises(DeviceError):
-        TuningRun(cfg, out, device=RecordingCloverleaf(fail_on=5, seed=1), plots=False).run()
+        TuningRun(
+            cfg, out, device=RecordingCloverleaf(fail_on=RESUME_FAILS_ON, seed=1), plots=False
+        ).run()
     RecordingCloverleaf.instances.clear()
 
     args = ["tune", str(path), "--out", str(out), "--json", "--no-plots"]
@@ -342,7 +359,7 @@ def test_resume_from_the_command_line(
     np.testing.assert_allclose(result["bias"], expected.bias, rtol=0, atol=1e-9)
     created = RecordingCloverleaf.instances
     assert len(created) == 2  # one per invocation; the first refused before measuring
-    assert created[0].calls == [] and len(created[1].calls) == 4
+    assert created[0].calls == [] and len(created[1].calls) == 8 - (RESUME_FAILS_ON - 1)
 
 
 def test_resume_refuses_another_configuration(tmp_path: Path) -> None:
