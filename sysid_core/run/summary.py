@@ -223,9 +223,11 @@ def summarize(
     ``ver`` and ``goals`` are that iteration's verification and goals, ``dwell`` the seconds
     per acquisition and where they come from (:func:`sysid_core.run.benchtime.dwell`): the
     bench time is the device clock's span ``clock_span_s`` when every measurement carried time
-    stamps (``bench_time_source = "clock"``), else the estimate ``acquisitions × dwell +
-    bias_changes × settle_s`` (``"estimate"``; ``acquisitions`` defaults to ``points``, and
-    without ``settle_s`` the bias changes are not counted).
+    stamps (``bench_time_source = "clock"``), plus what comes before the first stamp (the
+    settling and the first acquisition, ``settle_s + dwell``, as far as they are known), else
+    the estimate ``acquisitions × dwell + bias_changes × settle_s`` (``"estimate"``;
+    ``acquisitions`` defaults to ``points``, and without ``settle_s`` the bias changes are not
+    counted).
     """
     last = history[-1]
     dwell_s, dwell_source = dwell
@@ -247,7 +249,11 @@ def summarize(
         dwell_source=dwell_source,
         acquisitions=n_acq,
         settle_s=settle_s,
-        bench_time_s=clock_span_s if clock_span_s is not None else estimate,
+        bench_time_s=(
+            estimate
+            if clock_span_s is None
+            else clock_span_s + (settle_s or 0.0) + (dwell_s or 0.0)
+        ),
         bench_time_estimate_s=estimate,
         bench_time_source=(
             "clock" if clock_span_s is not None else None if dwell_s is None else "estimate"
