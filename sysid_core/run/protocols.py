@@ -373,21 +373,22 @@ class LeanProtocol(Protocol):
 
         The whole band if nothing is known; a scout window if the bias steps an electrode not
         varied before; else a mode grid around the modes predicted from every sweep so far
-        (:mod:`sysid_core.run.lean`). A sweep that does not show both modes is followed, at the
-        same bias, by the locating band sweep, one four times as dense, then the band at
-        ``resolution_hz``, until one shows them (or none is left).
+        (:mod:`sysid_core.run.lean`); ``first`` overrides that choice. A sweep that does not
+        show both modes is followed, at the same bias, by the locating band sweep, one four
+        times as dense, then the band at ``resolution_hz``, until one shows them (or none is
+        left).
         """
         ctx = self.ctx
         guess, scout = self.known.guess(bias, ctx.fitter.structure, ctx.fitter.model)
         locate = self.locate_plan.band()
-        if first is not None:
-            pass
-        elif guess is None:
+        if first is None and guess is None:
             first = locate
-        elif scout:
+        elif first is None and scout:
+            assert guess is not None
             grid = scout_grid(guess, self.locate_plan)
             first = locate if grid.size >= locate.size else grid
-        else:
+        elif first is None:
+            assert guess is not None
             first = mode_grid(guess, ctx.plan)
         denser = locate_plan(ctx.plan, 4 * (LOCATE_POINTS - 1) + 1).band()
         tries = [
