@@ -34,6 +34,7 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.data.io import atomic_write
+from sysid_core.data.pointvars import measurement_noise, noise_table, time_table
 from sysid_core.errors import (
     DataError,
     DimensionError,
@@ -157,63 +158,13 @@ def make_dataset(
     if not same:
         ds["measured"] = (("experiment", "frequency"), mask)
     if times_s is not None and any(t is not None for t in times_s):
-        ds["time_s"] = (("experiment", "frequency"), _time_table(times_s, grids, union, same))
+        ds["time_s"] = (("experiment", "frequency"), time_table(times_s, grids, union, same))
         ds["time_s"].attrs["units"] = "s"
     if noise_var is not None and any(v is not None for v in noise_var):
-        table = _noise_table(noise_var, grids, union, same, (n_out, n_in))
+        table = noise_table(noise_var, grids, union, same, (n_out, n_in))
         ds["noise_var"] = (RESPONSE_DIMS, table)
         ds["noise_var"].attrs["units"] = f"({response_units})^2"
     return ds
-
-
-def _time_table(
-    times_s: Sequence[np.ndarray | None],
-    grids: Sequence[np.ndarray],
-    union: np.ndarray,
-    same: bool,
-) -> np.ndarray:
-    """The ``time_s`` variable: each experiment's stamps at its grid's places, NaN elsewhere."""
-    if len(times_s) != len(grids):
-        raise DimensionError(f"{len(grids)} experiments but {len(times_s)} time-stamp arrays")
-    table = np.full((len(grids), union.size), np.nan)
-    for k, (times, grid) in enumerate(zip(times_s, grids, strict=True)):
-        if times is None:
-            continue
-        t = np.asarray(times, dtype=float).reshape(-1)
-        if t.size != grid.size:
-            raise DimensionError(
-                f"experiment {k}: {t.size} time stamps for {grid.size} frequencies"
-            )
-        pos = np.arange(grid.size) if same else np.searchsorted(union, grid)
-        table[k, pos] = t
-    return table
-
-
-def _noise_table(
-    noise_var: Sequence[np.ndarray | None],
-    grids: Sequence[np.ndarray],
-    union: np.ndarray,
-    same: bool,
-    channels: tuple[int, int],
-) -> np.ndarray:
-    """The ``noise_var`` variable: each experiment's variances at its grid's places, else NaN."""
-    if len(noise_var) != len(grids):
-        raise DimensionError(f"{len(grids)} experiments but {len(noise_var)} noise-variance arrays")
-    table = np.full((len(grids), union.size, *channels), np.nan)
-    for k, (var, grid) in enumerate(zip(noise_var, grids, strict=True)):
-        if var is None:
-            continue
-        v = np.asarray(var)
-        if np.iscomplexobj(v):
-            raise DimensionError(f"experiment {k}: noise_var must be real (a variance)")
-        if v.shape != (grid.size, *channels):
-            raise DimensionError(
-                f"experiment {k}: noise_var has shape {v.shape}; expected "
-                f"({grid.size}, {channels[0]}, {channels[1]}) (frequency, output, input)"
-            )
-        pos = np.arange(grid.size) if same else np.searchsorted(union, grid)
-        table[k, pos] = v.astype(float)
-    return table
 
 
 def point_noise(ds: xr.Dataset, k: int) -> np.ndarray | None:
@@ -286,23 +237,10 @@ def experiment_from_measurement(
             if "time_s" in measurement.coords
             else None
         ],
-        noise_var=[_measurement_noise(measurement)],
+        noise_var=[measurement_noise(measurement)],
     )
     ds.attrs["requested_bias"] = requested.tolist()
     return ds
-
-
-def _measurement_noise(measurement: xr.DataArray) -> np.ndarray | None:
-    """A measurement's ``noise_var`` coordinate as ``(frequency, output, input)``, or None."""
-    if "noise_var" not in measurement.coords:
-        return None
-    var = measurement.coords["noise_var"]
-    if set(var.dims) != {"frequency", "output", "input"}:
-        raise DimensionError(
-            f"a measurement's noise_var must have dims ('frequency', 'output', 'input'), got "
-            f"{var.dims}"
-        )
-    return np.asarray(var.transpose("frequency", "output", "input").values)
 
 
 def requested_bias(ds: xr.Dataset) -> np.ndarray:

@@ -2,9 +2,9 @@
 
 Lives here: the configuration file (:mod:`.config`), building a run's components
 (:mod:`.components`), experiment designs and sweep grids (:mod:`.sweeps`), the lean protocol
-(:mod:`.lean`, :mod:`.knowledge`), the evidence that a sweep shows both modes
-(:mod:`.evidence`), verification (:mod:`.verification`) and what it can claim
-(:mod:`.judgement`), DAC codes (:mod:`.dac`), bench time (:mod:`.benchtime`), the summary
+(:mod:`.lean`, :mod:`.knowledge`; from a previous model: :mod:`.previous`), the evidence that
+a sweep shows both modes (:mod:`.evidence`), verification (:mod:`.verification`) and what it
+can claim (:mod:`.judgement`), DAC codes (:mod:`.dac`), bench time (:mod:`.benchtime`), the summary
 (:mod:`.summary`), the plots (:mod:`.plots`) and the loop (:mod:`.pipeline`).
 
 May import: everything below it (errors, data, conic, model, identification, tuning, device,

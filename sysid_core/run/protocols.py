@@ -24,10 +24,9 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from sysid_core.data.schema import concat_experiments, point_times
+from sysid_core.data.schema import concat_experiments
 from sysid_core.data.validation import check_rank_condition
-from sysid_core.errors import ConfigError, DataError
-from sysid_core.identification.anchor import anchor
+from sysid_core.errors import ConfigError
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.bench import Bench
 from sysid_core.run.config import PipelineConfig
@@ -45,20 +44,12 @@ from sysid_core.run.lean import (
     predicted_uncertainty,
     scout_grid,
 )
+from sysid_core.run.previous import PreviousModel
 from sysid_core.run.sweeps import SweepPlan, design_experiments
 from sysid_core.run.verification import Verification, verify
 from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion, TuningResult
 
 __all__ = ["FullProtocol", "LeanProtocol", "Prefit", "Protocol", "RunContext", "make_protocol"]
-
-#: The first sweep of a run from a previous model (``--from-model``) spans this many
-#: bandwidths of uncertainty around the modes the model predicts (the gyro may have moved).
-PRIOR_BANDWIDTHS = 2.0
-#: The previous model's answers must cut the verified split by at least this factor; else
-#: the run measures the local design.
-PRIOR_CONTRACTION = 0.5
-#: The latest sweeps that anchor the previous model.
-PRIOR_WINDOWS = 2
 
 #: A fit already made of the data an iteration will fit: the data, the model, its notes.
 Prefit = tuple[xr.Dataset, FittedModel, list[str]]
@@ -201,9 +192,7 @@ class LeanProtocol(Protocol):
         super().__init__(ctx)
         #: A previous model of the gyro (``--from-model``): while its answers contract the
         #: split, it is anchored on the latest sweeps instead of measuring designs.
-        self.prior = prior
-        self.prior_windows: list[xr.Dataset] = []
-        self.last_split: float | None = None
+        self.previous = None if prior is None else PreviousModel(prior)
         self.known = Knowledge(ctx.space.tuned, ctx.space.structure_potential)
         self.locate_plan = locate_plan(ctx.plan)
         self.local = False
@@ -221,10 +210,8 @@ class LeanProtocol(Protocol):
         """
         ctx = self.ctx
         self.known.epoch = it
-        if self.prior is not None:
-            found = self._from_prior(it, bias, folder)
-            if found is not None:
-                return found
+        if self.previous is not None:
+            return self._from_previous(it, bias, folder)
         if it > 1 and self.moved:
             self.local = True
             ctx.say(
@@ -283,56 +270,29 @@ class LeanProtocol(Protocol):
         if verification.verified and verification.frequencies_hz is not None:
             self.last_verified = (bias.copy(), np.asarray(verification.frequencies_hz, dtype=float))
             self.last_region = region
-        if self.prior is not None:
-            split = verification.split_hz if verification.verified else None
-            if split is None or (
-                self.last_split is not None and split > PRIOR_CONTRACTION * self.last_split
-            ):
-                seen = "not verified" if split is None else f"{split * 1e3:.3g} mHz"
-                self.ctx.say(
-                    f"the model given did not bring the split down ({seen}); measuring the "
-                    "local design from now on"
-                )
-                self.prior, self.local = None, True
-            else:
-                self.last_split = split
-                self.prior_windows.append(verification.sweep)
+        if self.previous is not None:
+            why = self.previous.judge(verification)
+            if why is not None:
+                self.ctx.say(f"{why}; measuring the local design from now on")
+                self.previous, self.local = None, True
 
-    def _from_prior(
+    def _from_previous(
         self, it: int, bias: np.ndarray, folder: Path
-    ) -> tuple[xr.Dataset, Prefit | None] | None:
-        """The prior model anchored on the latest sweeps (``--from-model``), or None.
+    ) -> tuple[xr.Dataset, Prefit | None]:
+        """The previous model anchored on the latest sweeps (:mod:`sysid_core.run.previous`).
 
-        Iteration 1 measures one mode grid at ``bias`` around the modes the prior predicts
-        there (no locating sweep, no design); later iterations use the verification windows.
-        The prior's bias law is kept; a stiffness and damping offset and a gain per sweep
-        (:func:`~sysid_core.identification.anchor.anchor`) bring it to the gyro now.
+        Iteration 1 measures one mode grid at ``bias`` around the modes the model predicts
+        there (no locating sweep, no design); later ones anchor on the verification windows.
         """
-        assert self.prior is not None
+        assert self.previous is not None
         ctx = self.ctx
         if it == 1:
-            modes = self.prior.modal(bias[ctx.space.index])
-            guess = ModeGuess.of(
-                modes.frequencies_hz, modes.bandwidth_hz, PRIOR_BANDWIDTHS * modes.bandwidth_hz
-            )
-            if not guess.usable():
-                raise DataError(
-                    "the model given (--from-model) has no usable modes at the start bias: "
-                    "tune without it, or start where it holds"
-                )
-            self._learn(bias, folder / "exp0.nc", first=mode_grid(guess, ctx.plan, resolve=True))
-            self.prior_windows.append(self.known.items[-1].data)
-        windows = self.prior_windows[-PRIOR_WINDOWS:]
-        timed = all(point_times(w, 0) is not None for w in windows)
-        found = anchor(self.prior, windows, rate=False, untimed=not timed)
-        at = found.t_ref + float(getattr(ctx.bench.device.device, "settle_s", None) or 0.0)
-        model = found.model_at(self.prior, at)
-        model.meta.update(fit_time_s=0.0, from_model=True)
-        ds = concat_experiments(windows).sel(electrode=ctx.space.tuned)
-        ctx.say(
-            f"iteration {it}: the model given anchored on {found.sweeps} sweep(s) at "
-            f"{len(windows)} bias(es) (no design measured)"
-        )
+            first = self.previous.first_grid(bias[ctx.space.index], ctx.plan)
+            self._learn(bias, folder / "exp0.nc", first=first)
+            self.previous.windows.append(self.known.items[-1].data)
+        settle = float(getattr(ctx.bench.device.device, "settle_s", None) or 0.0)
+        ds, model, sweeps = self.previous.anchored(settle)
+        ctx.say(f"iteration {it}: the model given anchored on {sweeps} sweep(s), no design")
         return ds, (ds, model, [])
 
     def sweep(

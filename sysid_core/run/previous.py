@@ -1,0 +1,103 @@
+"""A previous model of the gyro (``--from-model``), brought to the gyro of today.
+
+A model fitted by an earlier run of the same gyro knows its bias law (``M``, ``C``, ``K_p``,
+the polynomial); what has changed since is mostly a stiffness offset (temperature, charging, a
+remount). So a run that starts from it measures one mode grid at its start bias, around the
+modes the model predicts there, and anchors the model on the latest sweeps
+(:func:`~sysid_core.identification.anchor.anchor`: a stiffness and damping offset and a gain per
+sweep) instead of locating the modes over the band and measuring a design. Each iteration then
+measures only its verification, while every verified split is at most
+:data:`PRIOR_CONTRACTION` of the one before; once one is not, or a verification fails, the run
+goes on as one without a model (:class:`~sysid_core.run.protocols.LeanProtocol`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+from sysid_core.data.schema import concat_experiments, point_times
+from sysid_core.errors import DataError
+from sysid_core.identification.anchor import anchor
+from sysid_core.model.fitted import FittedModel
+from sysid_core.run.lean import ModeGuess, mode_grid
+from sysid_core.run.sweeps import SweepPlan
+from sysid_core.run.verification import Verification
+
+__all__ = ["PRIOR_BANDWIDTHS", "PRIOR_CONTRACTION", "PRIOR_WINDOWS", "PreviousModel"]
+
+#: The first sweep spans this many bandwidths of uncertainty around the modes the previous
+#: model predicts (the gyro may have moved since).
+PRIOR_BANDWIDTHS = 2.0
+#: Each verified split must be at most this fraction of the one before; else the run measures
+#: the local design.
+PRIOR_CONTRACTION = 0.5
+#: The latest sweeps that anchor the model.
+PRIOR_WINDOWS = 2
+
+
+class PreviousModel:
+    """A previous model of the gyro and the sweeps that anchor it (see the module).
+
+    Parameters
+    ----------
+    model : FittedModel
+        The earlier run's model, over the electrodes this run tunes.
+    """
+
+    def __init__(self, model: FittedModel) -> None:
+        self.model = model
+        #: The sweeps measured so far that anchor it (the first grid, then the verifications).
+        self.windows: list[xr.Dataset] = []
+        self.last_split: float | None = None
+
+    def first_grid(self, tuned_bias: np.ndarray, plan: SweepPlan) -> np.ndarray:
+        """The first sweep's frequencies, at the tuned electrodes' biases ``tuned_bias``.
+
+        A mode grid around the modes the model predicts there, :data:`PRIOR_BANDWIDTHS` wide.
+
+        Raises
+        ------
+        DataError
+            If the model has no usable modes there.
+        """
+        modes = self.model.modal(tuned_bias)
+        guess = ModeGuess.of(
+            modes.frequencies_hz, modes.bandwidth_hz, PRIOR_BANDWIDTHS * modes.bandwidth_hz
+        )
+        if not guess.usable():
+            raise DataError(
+                "the model given (--from-model) has no usable modes at the start bias: tune "
+                "without it, or start where it holds"
+            )
+        return mode_grid(guess, plan, resolve=True)
+
+    def anchored(self, settle_s: float) -> tuple[xr.Dataset, FittedModel, int]:
+        """The latest :data:`PRIOR_WINDOWS` sweeps, and the model anchored on them.
+
+        The model is moved to the time of the next sweep, ``settle_s`` after the latest stamp;
+        also returned: how many sweeps anchored it.
+        """
+        windows = self.windows[-PRIOR_WINDOWS:]
+        timed = all(point_times(w, 0) is not None for w in windows)
+        found = anchor(self.model, windows, rate=False, untimed=not timed)
+        model = found.model_at(self.model, found.t_ref + settle_s)
+        model.meta.update(fit_time_s=0.0, from_model=True)
+        ds = concat_experiments(windows).sel(electrode=list(self.model.electrodes))
+        return ds, model, found.sweeps
+
+    def judge(self, verification: Verification) -> str | None:
+        """Why the model no longer helps, or None: then the verification's sweep anchors next.
+
+        It no longer helps when the verification failed or its split did not fall to
+        :data:`PRIOR_CONTRACTION` of the last one.
+        """
+        split = verification.split_hz if verification.verified else None
+        if split is None or (
+            self.last_split is not None and split > PRIOR_CONTRACTION * self.last_split
+        ):
+            seen = "not verified" if split is None else f"{split * 1e3:.3g} mHz"
+            return f"the model given did not bring the split down ({seen})"
+        self.last_split = split
+        self.windows.append(verification.sweep)
+        return None
