@@ -219,7 +219,7 @@ def mode_grid(guess: ModeGuess, plan: SweepPlan, resolve: bool = False) -> np.nd
             return finer
         return points
     spill = points.size % plan.tones
-    if points.size > plan.tones and 0 < spill <= ANCHORS // 2:
+    if points.size - spill >= MIN_POINTS and 0 < spill <= ANCHORS // 2:
         # a few points spill into one more acquisition: drop that many of the nearer anchors
         near = _nearer_anchors(points, guess, plan)[:spill]
         points = np.setdiff1d(points, near)

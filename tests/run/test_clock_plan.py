@@ -13,13 +13,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from sysid_cloverleaf import CloverleafGyro
 
 from sysid_core import load_model, tune
 from sysid_core.cli import main
 from sysid_core.errors import ConfigError
 from sysid_core.run.lean import ANCHORS, RESOLVED_STEP, ModeGuess, mode_grid
-from sysid_core.run.sweeps import SweepPlan
+from sysid_core.run.sweeps import MIN_POINTS, SweepPlan
 
 PLAN = SweepPlan((4385.0, 4445.0), 0.5, 6.0, 0.05, 1.0, 0.01, 20_000)
 GOOD_LAB = {"temperature_ramp_k_per_h": 0.2, "temperature_walk_k_per_sqrt_h": 0.05}
@@ -96,6 +98,28 @@ def test_with_tones_a_mode_grid_fills_whole_acquisitions() -> None:
     assert near(coarse).max() > RESOLVED_STEP * 0.08
     assert near(fine).max() <= RESOLVED_STEP * 0.08 + 1e-9
     assert -(-fine.size // 8) <= -(-coarse.size // 8) + 1
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    tones=st.integers(1, 16),
+    split=st.floats(0.0, 20.0),
+    bw=st.floats(0.005, 0.5),
+    sigma=st.floats(0.0, 1.0),
+    resolve=st.booleans(),
+)
+def test_a_mode_grid_keeps_its_floor_and_its_band_whatever_the_tones(
+    tones: int, split: float, bw: float, sigma: float, resolve: bool
+) -> None:
+    plan = dataclasses.replace(PLAN, tones=tones)
+    guess = ModeGuess.of([4420.0, 4420.0 + split], [bw, bw], sigma)
+    grid = mode_grid(guess, plan, resolve=resolve)
+    assert grid.size >= MIN_POINTS
+    assert np.all(np.diff(grid) > 0)
+    assert grid[0] >= PLAN.band_hz[0] and grid[-1] <= PLAN.band_hz[1]
+    one = mode_grid(guess, PLAN, resolve=resolve)
+    # never more acquisitions than the one-tone grid would need, plus one to resolve
+    assert -(-grid.size // tones) <= -(-one.size // tones) + 1
 
 
 def test_the_bench_time_estimate_follows_the_clock(tmp_path: Path) -> None:
