@@ -8,9 +8,10 @@ Each run tunes a simulated gyro on a bench with a clock (settling 3 τ after eac
 noise because the drive is shared) and the drift of a good lab (0.2 K/h ramp, 0.05 K/√h walk).
 A run that never gets there counts as never (an infinite time) in the percentiles.
 ``cloverleaf``: the simulated cloverleaf from ``--starts`` random starts in ±9 V on B1 and B2
-(start k uses seed k); ``random``: one random gyro per seed, from 0 V, first step 3 V. Degenerate
-modes with B1 and B2, acceptance 1 mHz, up to 4 iterations. With ``--from-model``, each run
-starts from the last model of a previous run on the same gyro (from 0 V, other noise and
+(start k uses seed k); ``random``: one random gyro per seed, from 0 V, first step 3 V, the
+model structure that matches its dynamics (``act`` or ``sen``, as in docs/random-gyro.md).
+Degenerate modes with B1 and B2, acceptance 1 mHz, up to 4 iterations. With ``--from-model``,
+each run starts from the last model of a previous run on the same gyro (from 0 V, other noise and
 drift; its own time is not counted).
 
 After every measurement a recorder reads the TRUE split at that bias on the clock (the run never
@@ -74,11 +75,14 @@ def _config(gyro: str, device: Any, options: dict, experiment: dict, start: list
         "acceptance_hz": ACCEPTANCE,
         "max_iterations": 4,
     }
+    model = {}
     if gyro == "random":
         experiment = {"bias_step": 3.0, **experiment}
+        model = {"structure": device.structure}  # each gyro's own, as in docs/random-gyro.md
     return {
         "device": {"name": device.name, **{k: v for k, v in options.items() if k != "bench"}},
         "tuning": tuning,
+        **({"model": model} if model else {}),
         **({"experiment": experiment} if experiment else {}),
     }
 

@@ -2,9 +2,10 @@
 
     python examples/drift_population.py --bench lab --drift none --seeds 101-124 --out runs/pop
 
-Each gyro (``random-gyro``, one device seed each) is tuned from 0 V to degenerate modes with B1
-and B2 (acceptance 2 mHz, up to 4 iterations) on a simulated bench with a clock and the drifts
-of ``--bench``: ``lab`` (an uncontrolled lab: ±1.5 K/h ramp, the sign alternating with the
+Each gyro (``random-gyro``, one device seed each) is tuned, with the model structure that
+matches its dynamics (``act`` or ``sen``), from 0 V to degenerate modes with B1 and B2
+(acceptance 2 mHz, up to 4 iterations) on a simulated bench with a clock and the drifts of
+``--bench``: ``lab`` (an uncontrolled lab: ±1.5 K/h ramp, the sign alternating with the
 seed, 0.5 K/√h walk, 15 mV/h charging, 0.3 % / 0.1° analyzer wander, 60 dB SNR) or ``good``
 (0.2 K/h, 0.05 K/√h). The judge is the gyro's true split at the end of the run, which the run
 never sees. One JSON line per gyro goes to ``<out>/runs.jsonl``, then the table row.
@@ -56,7 +57,7 @@ def one(seed: int, bench: str, drift: str, out: Path, iterations: int = 4, tones
     device = get_registry().device("random-gyro", **options)
     config = {
         "device": {"name": "random-gyro", **{k: v for k, v in options.items() if k != "bench"}},
-        "model": {"drift": drift},
+        "model": {"drift": drift, "structure": device.structure},
         "tuning": {
             "criterion": "degenerate",
             "electrodes": ["B1", "B2"],
