@@ -294,7 +294,7 @@ def locate_plan(plan: SweepPlan, points: int = LOCATE_POINTS) -> SweepPlan:
     that does not locate them is followed by one four times as dense, then by the band at
     ``resolution_hz`` (each only if it has fewer points than the next). Its points do not
     depend on the device's tones: rounded down to whole acquisitions (56 of 61 with 8 tones),
-    3 of 24 random gyros ended over 1 mHz against 1 (docs/bench-time.md).
+    5 of 24 random gyros ended over 1 mHz against 1 (docs/bench-time.md).
     """
     lo, hi = plan.band_hz
     step = max(plan.resolution_hz, (hi - lo) / (points - 1))
