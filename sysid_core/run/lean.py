@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sysid_core.run.benchtime import acquisitions
 from sysid_core.run.sweeps import MIN_POINTS, SweepPlan, grid
 from sysid_core.tuning.criteria import TuningResult
 
@@ -108,6 +109,10 @@ class ModeGuess:
         s = np.broadcast_to(np.asarray(uncertainty_hz, dtype=float), (2,)).copy()
         return cls(f, bw, np.abs(s))
 
+    def core_half_widths(self) -> np.ndarray:
+        """Half-width of each mode's grid core (Hz): ``CORE_BANDWIDTHS·bw + 2σ``."""
+        return CORE_BANDWIDTHS * self.bandwidth_hz + 2.0 * self.uncertainty_hz
+
     @property
     def split_hz(self) -> float:
         """Distance of the two modes (Hz)."""
@@ -169,8 +174,7 @@ def _mode_points(
 
     Then the anchors; everything inside the band, near-duplicates merged.
     """
-    f, bw, s = guess.frequencies_hz, guess.bandwidth_hz, guess.uncertainty_hz
-    half = CORE_BANDWIDTHS * bw + 2.0 * s
+    f, bw, half = guess.frequencies_hz, guess.bandwidth_hz, guess.core_half_widths()
     parts = []
     for fi, bi, hi in zip(f, bw, half, strict=True):
         step = max(bi / points_per_bw, hi / max_half)
@@ -208,8 +212,7 @@ def mode_grid(guess: ModeGuess, plan: SweepPlan, resolve: bool = False) -> np.nd
         return points
     if plan.tones <= 1:
         return points
-    bw, s = guess.bandwidth_hz, guess.uncertainty_hz
-    half = CORE_BANDWIDTHS * bw + 2.0 * s
+    bw, half = guess.bandwidth_hz, guess.core_half_widths()
     step = np.maximum(bw / points_per_bw, half / MAX_HALF_POINTS)
     if resolve and np.any(step > RESOLVED_STEP * bw):
         # too coarse to resolve the modes: a finer grid if one more acquisition pays for it
@@ -228,8 +231,7 @@ def mode_grid(guess: ModeGuess, plan: SweepPlan, resolve: bool = False) -> np.nd
 
 def _nearer_anchors(points: np.ndarray, guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
     """The anchors of ``points`` (those outside the modes' cores), nearest to a mode first."""
-    f, bw, s = guess.frequencies_hz, guess.bandwidth_hz, guess.uncertainty_hz
-    half = CORE_BANDWIDTHS * bw + 2.0 * s
+    f, half = guess.frequencies_hz, guess.core_half_widths()
     distance = np.min(np.abs(points[:, None] - f[None, :]) - half[None, :], axis=1)
     outside = distance > 1e-9
     order = np.argsort(distance[outside])
@@ -241,8 +243,7 @@ def tone_budget(n_points: int, tones: int, extra: int = 0) -> int:
 
     What a sweep may use at the same (or a little more) bench time.
     """
-    tones = max(int(tones), 1)
-    return (-(-int(n_points) // tones) + int(extra)) * tones
+    return (acquisitions(n_points, tones) + int(extra)) * max(int(tones), 1)
 
 
 def scout_grid(guess: ModeGuess, plan: SweepPlan) -> np.ndarray:

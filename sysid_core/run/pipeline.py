@@ -132,6 +132,8 @@ class TuningRun:
         )
         check_bias(dev, self.space.start_bias)
         folder = RunFolder(self.out, config.digest())
+        #: Frequencies per acquisition: the device's, else the configuration's, else 1.
+        acquisition_tones = tones(dev, config.experiment.tones)
         self.bench = Bench(
             GuardedDevice(dev, config.device.name, config.experiment.timeout_s),
             folder,
@@ -140,7 +142,7 @@ class TuningRun:
             config.device.name,
             self.say,
             owns_device=device is None,
-            tones=tones(dev, config.experiment.tones),
+            tones=acquisition_tones,
         )
         self.fitter = Fitter(
             self.structure,
@@ -159,9 +161,7 @@ class TuningRun:
             if config.model.drift == "track"
             else None
         )
-        plan = SweepPlan.from_config(
-            config.experiment, dev.band_hz, tones=tones(dev, config.experiment.tones)
-        )
+        plan = SweepPlan.from_config(config.experiment, dev.band_hz, tones=acquisition_tones)
         context = RunContext(config, self.space, plan, self.bench, self.fitter, self.say)
         context.design(self.space.start_bias)  # the first design: limits and rank condition
         if from_model is not None:
