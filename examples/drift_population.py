@@ -46,7 +46,15 @@ def seeds(text: str) -> list[int]:
     return [int(s) for s in text.split(",")]
 
 
-def one(seed: int, bench: str, drift: str, out: Path, iterations: int = 4, tones: int = 1) -> dict:
+def one(
+    seed: int,
+    bench: str,
+    drift: str,
+    out: Path,
+    iterations: int = 4,
+    tones: int = 1,
+    max_passes: int | None = None,
+) -> dict:
     """Tune gyro ``seed``; its record (true split at the end, claim, points, bench time)."""
     sign = 1.0 if seed % 2 else -1.0
     table = {"clock": True, "seed": seed, "tones": tones, **BENCHES[bench]}
@@ -65,6 +73,7 @@ def one(seed: int, bench: str, drift: str, out: Path, iterations: int = 4, tones
             "acceptance_hz": ACCEPTANCE,
             "max_iterations": iterations,
         },
+        "experiment": {} if max_passes is None else {"max_passes": max_passes},
     }
     folder = out / f"gyro{seed}"
     shutil.rmtree(folder, ignore_errors=True)
@@ -110,13 +119,26 @@ def main() -> None:
     parser.add_argument("--seeds", default="101-124")
     parser.add_argument("--iterations", type=int, default=4, help="max_iterations (4)")
     parser.add_argument("--tones", type=int, default=1, help="tones per acquisition (1)")
+    parser.add_argument(
+        "--max-passes", type=int, default=None, help="[experiment] max_passes (its default)"
+    )
     parser.add_argument("--out", type=Path, default=Path("runs/drift-population"))
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     records = []
     with (args.out / "runs.jsonl").open("w") as log:
         for seed in seeds(args.seeds):
-            records.append(one(seed, args.bench, args.drift, args.out, args.iterations, args.tones))
+            records.append(
+                one(
+                    seed,
+                    args.bench,
+                    args.drift,
+                    args.out,
+                    args.iterations,
+                    args.tones,
+                    args.max_passes,
+                )
+            )
             log.write(json.dumps(records[-1]) + "\n")
             log.flush()
     print(

@@ -179,6 +179,10 @@ class ExperimentConfig(_Strict):
     Measured on the cloverleaf (49 starts, ``docs/bench-time.md``): to a true split of 1 mHz,
     lean needs a median of under 200 points against about 1400.
 
+    ``max_passes`` (default 1: never repeat) bounds how many passes of a verification window
+    are averaged when its noise hides the split (:mod:`sysid_core.run.passes`): for a bench of
+    low SNR whose drift is slow (docs/drift.md, "Averaging a window").
+
     ``max_points`` (default 20 000) bounds the points of any sweep: a resolution typed wrong
     (``1e-6``) is refused before anything is measured instead of running for days.
     """
@@ -197,6 +201,7 @@ class ExperimentConfig(_Strict):
     verify_span_hz: float = Field(1.0, gt=0)
     verify_resolution_hz: float = Field(0.01, gt=0)
     max_points: int = Field(20_000, ge=11)
+    max_passes: int = Field(1, ge=1, le=64)
     timeout_s: float | None = Field(None, gt=0)
 
     @field_validator("band_hz")

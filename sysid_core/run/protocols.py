@@ -44,6 +44,7 @@ from sysid_core.run.lean import (
     predicted_uncertainty,
     scout_grid,
 )
+from sysid_core.run.passes import repeat_window
 from sysid_core.run.previous import PreviousModel
 from sysid_core.run.sweeps import SweepPlan, design_experiments
 from sysid_core.run.verification import Verification, verify
@@ -129,10 +130,18 @@ class Protocol(ABC):
     def sweep(
         self, bias: np.ndarray, freqs: np.ndarray, path: Path, band: bool
     ) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
-        """One sweep at ``bias``, its own model and the evidence that it shows both modes."""
+        """One sweep at ``bias``, its own model and the evidence that it shows both modes.
+
+        A narrow window that shows both modes but whose noise hides the split is measured again
+        and averaged (:mod:`sysid_core.run.passes`); every pass is saved (``-pass2.nc``, ...).
+        """
         sweep = self.ctx.bench.measure(bias, freqs, path)
         model, evidence = self.ctx.fitter.window(sweep, band)
-        return sweep, model, evidence
+        if band or not evidence.ok:
+            return sweep, model, evidence
+        ctx = self.ctx
+        first = (sweep, model, evidence)
+        return repeat_window(ctx.bench, ctx.fitter, ctx.config, ctx.say, bias, freqs, path, first)
 
     def _verify_with(
         self,
