@@ -6,9 +6,10 @@ Each gyro (``random-gyro``, one device seed each) is tuned, with the model struc
 matches its dynamics (``act`` or ``sen``), from 0 V to degenerate modes with B1 and B2
 (acceptance 2 mHz, up to 4 iterations) on a simulated bench with a clock and the drifts of
 ``--bench``: ``lab`` (an uncontrolled lab: ±1.5 K/h ramp, the sign alternating with the
-seed, 0.5 K/√h walk, 15 mV/h charging, 0.3 % / 0.1° analyzer wander, 60 dB SNR) or ``good``
-(0.2 K/h, 0.05 K/√h). The judge is the gyro's true split at the end of the run, which the run
-never sees. One JSON line per gyro goes to ``<out>/runs.jsonl``, then the table row.
+seed, 0.5 K/√h walk, 15 mV/h charging, 0.3 % / 0.1° analyzer wander, 60 dB SNR), ``good``
+(0.2 K/h, 0.05 K/√h) or ``quiet`` (a clock without drift, 60 dB SNR). The judge is the gyro's
+true split at the end of the run, which the run never sees. One JSON line per gyro goes to
+``<out>/runs.jsonl``, then the table row.
 """
 
 from __future__ import annotations
@@ -33,8 +34,9 @@ BENCHES = {
         "phase_wander_deg": 0.1,
     },
     "good": {"temperature_ramp_k_per_h": 0.2, "temperature_walk_k_per_sqrt_h": 0.05},
+    "quiet": {"temperature_ramp_k_per_h": 0.0},  # a clock, no drift
 }
-NOISE = {"lab": 1e-3, "good": None}  # 60 dB SNR in the uncontrolled lab
+NOISE = {"lab": 1e-3, "good": None, "quiet": 1e-3}  # 60 dB SNR in the lab and the quiet bench
 ACCEPTANCE = 0.002
 
 
