@@ -69,3 +69,34 @@ def test_how_long_a_tuning_holds(split: float, rate: float | None, expected: flo
     assert holds_s(split, ACCEPTANCE, rate) == (
         expected if expected is None else pytest.approx(expected)
     )
+
+
+def test_a_last_fit_of_undrifted_clock_data_does_not_conclude_unreachable(
+    tmp_path: Path,
+) -> None:
+    """On a bench with a clock, a fit that modelled no drift may blame the bias for the clock's
+    doing (two gyros of the uncontrolled lab's population ended with "cannot be made
+    degenerate", both tunable). At the last iteration such a fit no longer concludes: the run
+    stays at its bias and ends unconverged; a frozen bench still gets the verdict."""
+    from sysid_cloverleaf import CloverleafGyro
+
+    from sysid_core.errors import UnreachableTuningError
+
+    config = {
+        "device": {"name": "cloverleaf", "seed": 1},
+        "tuning": {
+            "criterion": "target",
+            "target_hz": 4460.0,  # out of reach inside ±10 V
+            "electrodes": ["B1", "B2"],
+            "start_bias": [1.0, 1.0, 0.0],
+            "max_iterations": 1,
+        },
+    }
+    lines: list[str] = []
+    clocked = CloverleafGyro(seed=1, bench={"clock": True})
+    result = tune(config, tmp_path / "clock", device=clocked, plots=False, progress=lines.append)
+    assert not result.converged
+    np.testing.assert_allclose(result.bias, [1.0, 1.0, 0.0], atol=1e-3)  # it stayed
+    assert any("not concluded" in line for line in lines)
+    with pytest.raises(UnreachableTuningError, match="4460"):
+        tune(config, tmp_path / "frozen", device=CloverleafGyro(seed=1), plots=False)
