@@ -40,7 +40,9 @@ def _runs(folder: Path) -> dict[str, dict[str, Any]]:
 
 def to_target(run: dict[str, Any], target_hz: float) -> dict[str, Any]:
     """Points, bench time and iterations until the true split was first <= ``target_hz``."""
-    dwell = (run.get("bench_time_s") or 0.0) / max(run.get("points") or 1, 1) or None
+    # the dwell per point (a run's bench time also counts its settling since the estimate does)
+    dwell = run.get("dwell_s") or (run.get("bench_time_s") or 0.0) / max(run.get("points") or 1, 1)
+    dwell = dwell or None
     for it in run["iterations"]:
         if it["true_split_hz"] <= target_hz:
             points = it["points"]

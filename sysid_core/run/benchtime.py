@@ -12,7 +12,8 @@ bias changes × settle_s``. Each figure comes from, in this order:
 * the device's own attribute (``dwell_s`` seconds per acquisition, ``tones``, ``settle_s``);
 * the configuration's ``[experiment] dwell_s``, ``tones``, ``settle_s``;
 * estimated from the data: the dwell ``5 Q/ω`` of the sharpest mode of the last fitted model
-  (2.5 time constants; 8.1 s for Q = 45 000 at 4.4 kHz); one tone; no settling time.
+  (2.5 time constants; 8.1 s for Q = 45 000 at 4.4 kHz); one tone; the settling ``3 × 2Q/ω``
+  of its slowest mode (9.8 s there).
 
 When every measurement carries time stamps the device's clock is the truth instead
 (:mod:`sysid_core.run.summary`).
@@ -28,6 +29,7 @@ from sysid_core.model.fitted import FittedModel
 
 __all__ = [
     "DWELL_TIME_CONSTANTS",
+    "SETTLE_TIME_CONSTANTS",
     "acquisitions",
     "dwell",
     "points_per_frequency",
@@ -37,6 +39,9 @@ __all__ = [
 
 #: The estimated dwell is this many ``Q/ω`` (2.5 time constants ``2Q/ω``).
 DWELL_TIME_CONSTANTS = 5.0
+#: The estimated settling after a bias change is this many time constants ``2Q/ω`` of the
+#: slowest mode (the response to a step is then within 5 % of its end).
+SETTLE_TIME_CONSTANTS = 3.0
 
 
 def points_per_frequency(device: object) -> int:
@@ -66,10 +71,14 @@ def acquisitions(n_frequencies: int, tones: int) -> int:
     return -(-int(n_frequencies) // max(int(tones), 1))
 
 
-def settle(device: object, cfg_settle: float | None = None) -> float | None:
-    """Seconds the gyro needs after a bias change (None: not counted).
+def settle(
+    device: object, cfg_settle: float | None = None, model: FittedModel | None = None
+) -> tuple[float | None, str | None]:
+    """Seconds the gyro needs after a bias change and where they come from.
 
-    The device's ``settle_s``, else the configuration's ``[experiment] settle_s``.
+    The device's ``settle_s`` (``"device"``), else the configuration's ``[experiment]
+    settle_s`` (``"config"``), else :data:`SETTLE_TIME_CONSTANTS` time constants ``2Q/ω`` of
+    the slowest mode of ``model`` (``"estimated 3 τ"``); ``(None, None)`` if nothing says.
     """
     own = getattr(device, "settle_s", None)
     try:
@@ -77,8 +86,22 @@ def settle(device: object, cfg_settle: float | None = None) -> float | None:
     except (TypeError, ValueError):
         value = None
     if value is not None and math.isfinite(value) and value >= 0:
-        return value
-    return cfg_settle
+        return value, "device"
+    if cfg_settle is not None:
+        return float(cfg_settle), "config"
+    if model is None:
+        return None, None
+    try:
+        report = model.modal(model.meta.get("fit_bias", [[0.0] * model.n_electrodes])[0])
+    except Exception:  # a model without modes there: nothing to estimate from
+        return None, None
+    f = np.asarray(report.frequencies_hz, dtype=float)
+    q = np.asarray(report.q, dtype=float)
+    ok = np.isfinite(q) & (q > 0) & np.isfinite(f) & (f > 0)
+    if not np.any(ok):
+        return None, None
+    tau = float(np.max(q[ok] / (math.pi * f[ok])))  # 2Q/ω of the slowest mode
+    return SETTLE_TIME_CONSTANTS * tau, "estimated 3 τ"
 
 
 def _positive(value: object) -> float | None:

@@ -154,10 +154,7 @@ class TuningRun:
         )
         #: With ``[model] drift = "track"``: the verified windows, and the model moved ahead.
         self.tracker = (
-            Tracker(
-                settle_s=float(getattr(dev, "settle_s", None) or 0.0),
-                near_hz=NEAR_ACCEPTANCES * config.tuning.acceptance_hz,
-            )
+            Tracker(near_hz=NEAR_ACCEPTANCES * config.tuning.acceptance_hz)
             if config.model.drift == "track"
             else None
         )
@@ -248,7 +245,7 @@ class TuningRun:
                 ),
                 acquisitions=self.bench.acquisitions,
                 bias_changes=self.bench.bias_changes,
-                settle_s=settle(self.bench.device.device, self.config.experiment.settle_s),
+                settle=settle(self.bench.device.device, self.config.experiment.settle_s, model),
                 confidence=step.result.confidence,
                 notes=self.notes,
                 clock_span_s=self.bench.clock_span_s,
@@ -300,6 +297,9 @@ class TuningRun:
     def _track(self, it: int, model: FittedModel, ds: xr.Dataset) -> FittedModel:
         """The model moved to the next verification's time (``drift = "track"``)."""
         assert self.tracker is not None
+        # the device's or the configuration's settling, else estimated from this fit's Q
+        known = settle(self.bench.device.device, self.config.experiment.settle_s, model)[0]
+        self.tracker.settle_s = float(known or 0.0)
         now = self.tracker.now(model, ds, self.say, it)
         seen = self.tracker.rates
         if seen is not None:

@@ -110,6 +110,7 @@ class RunSummary:
     points: int = 0
     acquisitions: int = 0
     settle_s: float | None = None
+    settle_source: str | None = None
     bench_time_estimate_s: float | None = None
     bench_time_s: float | None = None
     dwell_s: float | None = None
@@ -171,6 +172,7 @@ class RunSummary:
             "bench_time_estimate_s": self.bench_time_estimate_s,
             "acquisitions": self.acquisitions,
             "settle_s": self.settle_s,
+            "settle_source": self.settle_source,
             "drift_common_hz_per_h": self.drift_common_hz_per_h,
             "drift_split_hz_per_h": self.drift_split_hz_per_h,
             "converged": self.converged,
@@ -212,7 +214,7 @@ def summarize(
     confidence: ConfidenceRegion | None,
     acquisitions: int | None = None,
     bias_changes: int = 0,
-    settle_s: float | None = None,
+    settle: tuple[float | None, str | None] = (None, None),
     notes: list[str],
     clock_span_s: float | None = None,
     drift_hz_per_h: float | None = None,
@@ -231,6 +233,7 @@ def summarize(
     """
     last = history[-1]
     dwell_s, dwell_source = dwell
+    settle_s, settle_source = settle
     n_acq = points if acquisitions is None else acquisitions
     estimate = (
         None
@@ -249,6 +252,7 @@ def summarize(
         dwell_source=dwell_source,
         acquisitions=n_acq,
         settle_s=settle_s,
+        settle_source=settle_source,
         bench_time_s=(
             estimate
             if clock_span_s is None

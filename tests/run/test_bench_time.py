@@ -15,6 +15,7 @@ from sysid_core.data.schema import load_dataset
 from sysid_core.model.modal import modal_analysis
 from sysid_core.run.config import parse_config
 from sysid_core.run.pipeline import TuningRun
+from sysid_core.run.summary import RunSummary
 
 MEASUREMENT = re.compile(r"(exp\d+|verify(-\d+)?)\.nc")
 
@@ -53,7 +54,7 @@ def test_points_and_bench_time_with_the_devices_own_dwell(tmp_path: Path) -> Non
     on_disk = _points_on_disk(out)
     assert on_disk > 0 and summary.points == 2 * on_disk
     assert summary.dwell_source == "device" and summary.dwell_s == 2.0
-    assert summary.bench_time_s == pytest.approx(2.0 * summary.points)
+    _settling_counted(summary, 2.0 * summary.points)
     saved = json.loads((out / "summary.json").read_text())
     assert saved["points"] == summary.points and saved["bench_time_s"] == summary.bench_time_s
 
@@ -62,11 +63,26 @@ def test_the_configs_dwell_and_the_estimate_from_the_data(tmp_path: Path) -> Non
     configured = TuningRun(parse_config(_config(dwell_s=3.0)), tmp_path / "a", plots=False).run()
     assert configured.dwell_source == "config"
     assert configured.points == _points_on_disk(tmp_path / "a")
-    assert configured.bench_time_s == pytest.approx(3.0 * configured.points)
+    _settling_counted(configured, 3.0 * configured.points)
     estimated = TuningRun(parse_config(_config()), tmp_path / "b", plots=False).run()
     assert estimated.dwell_source == "estimated 5 Q/ω"
     truth = CloverleafGyro(seed=1).truth
     undamped, _, q = modal_analysis(truth.M, truth.C, truth.stiffness([0.0, 0.0, 0.0]))
     expected = 5 * float(np.max(q)) / (2 * np.pi * float(np.min(undamped)))
     assert estimated.dwell_s == pytest.approx(expected, rel=0.2)  # the fitted Q, not the truth
-    assert estimated.bench_time_s == pytest.approx(estimated.points * estimated.dwell_s)
+    _settling_counted(estimated, estimated.points * estimated.dwell_s)
+    # the settling estimated from the fitted Q: 3 time constants 2Q/ω of the slowest mode
+    slowest = float(np.max(q / (np.pi * undamped)))
+    assert estimated.settle_s == pytest.approx(3 * slowest, rel=0.2)
+    with_settle = TuningRun(
+        parse_config(_config(dwell_s=3.0, settle_s=7.0)), tmp_path / "c", plots=False
+    ).run()
+    assert (with_settle.settle_s, with_settle.settle_source) == (7.0, "config")
+
+
+def _settling_counted(summary: RunSummary, acquiring_s: float) -> None:
+    """The estimate is the acquisitions' time plus a whole number (>= 1) of settlings, the
+    settling estimated from the fitted model when neither the device nor the config says."""
+    assert summary.settle_source == "estimated 3 τ" and summary.settle_s > 0
+    changes = (summary.bench_time_s - acquiring_s) / summary.settle_s
+    assert changes >= 1 - 1e-9 and changes == pytest.approx(round(changes), abs=1e-6)

@@ -137,6 +137,7 @@ def run_one(spec: RunSpec) -> dict[str, Any]:
             "iterations": iters,
             "points": summary.points,
             "bench_time_s": summary.bench_time_s,
+            "dwell_s": summary.dwell_s,
             "error": None,
             "time_s": time.perf_counter() - t0,
         }
