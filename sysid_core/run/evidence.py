@@ -8,7 +8,11 @@ with evidence, checked by :func:`assess_window`:
 
 ``fit``
     The single-bias model reproduces the data (relative response error at most
-    :data:`FIT_TOLERANCE`, :data:`BAND_FIT_TOLERANCE` over a whole-band sweep).
+    :data:`FIT_TOLERANCE`, :data:`BAND_FIT_TOLERANCE` over a whole-band sweep). When the sweep
+    carries its measured noise (``noise_var``), the noise's own share of the error is allowed
+    on top: the limit is ``√(tol² + (NOISE_ALLOWANCE · n)²)``, ``n`` the noise's norm relative
+    to the response's (:func:`noise_share`); a fit that misses a noisy sweep by its noise has
+    still found its modes.
 ``data peak``
     The data themselves peak inside the window: the largest ``σ̄(ψ)`` is at an interior point
     and at least :data:`PEAK_TO_EDGE` times ``σ̄(ψ)`` at either edge. A mode just outside the
@@ -47,16 +51,20 @@ __all__ = [
     "FIT_TOLERANCE",
     "MAX_MODEL_PEAK",
     "MIN_CONTRIBUTION",
+    "NOISE_ALLOWANCE",
     "PEAK_TO_EDGE",
     "Check",
     "WindowAssessment",
     "assess_window",
+    "noise_share",
 ]
 
 #: Largest relative response error of the single-bias fit of a narrow window.
 FIT_TOLERANCE = 0.2
 #: Largest relative response error of the single-bias fit of a whole-band sweep.
 BAND_FIT_TOLERANCE = 0.35
+#: A sweep's measured noise may add this many times its relative norm to the fit's limit.
+NOISE_ALLOWANCE = 1.5
 #: The data's peak must exceed the response at both window edges by this factor.
 PEAK_TO_EDGE = 3.0
 #: Each mode's own peak must be at least this fraction of the data's peak.
@@ -160,6 +168,22 @@ def local_steps(f: np.ndarray, modes: np.ndarray, bw: np.ndarray) -> np.ndarray:
     return out
 
 
+def noise_share(sweep: xr.Dataset, mask: np.ndarray, psi: np.ndarray) -> float:
+    """The measured noise's norm relative to the response's (0 without ``noise_var``).
+
+    ``sqrt(Σ noise_var) / ‖ψ‖`` over the measured points and every entry: the relative
+    response error that the noise alone leaves against the true response.
+    """
+    if "noise_var" not in sweep:
+        return 0.0
+    var = np.asarray(sweep["noise_var"].values, dtype=float)[0][mask]
+    var = var[np.isfinite(var) & (var >= 0)]
+    norm = float(np.linalg.norm(psi))
+    if not var.size or norm <= 0:
+        return 0.0
+    return float(np.sqrt(var.sum())) / norm
+
+
 def _sigma(values: np.ndarray) -> np.ndarray:
     return np.linalg.norm(values, ord=2, axis=(-2, -1))
 
@@ -191,7 +215,12 @@ def assess_window(sweep: xr.Dataset, model: FittedModel, band: bool = False) -> 
     g = model.response(f, [])
     rel = float(np.linalg.norm(g - psi) / max(float(np.linalg.norm(psi)), 1e-300))
     tol = BAND_FIT_TOLERANCE if band else FIT_TOLERANCE
-    checks.append(Check("fit", rel <= tol, f"relative response error {rel:.3g} (limit {tol:g})"))
+    noise = noise_share(sweep, mask, psi)
+    limit = float(np.hypot(tol, NOISE_ALLOWANCE * noise))
+    why = f"limit {tol:g}"
+    if noise > 0:
+        why = f"limit {limit:.3g}: {tol:g} and the measured noise's {noise:.3g}"
+    checks.append(Check("fit", rel <= limit, f"relative response error {rel:.3g} ({why})"))
 
     s = _sigma(psi)
     i_pk = int(np.argmax(s))
