@@ -359,7 +359,9 @@ def plot_iteration(
             model,
             tuned_bias,
             ver.model,
-            f"iteration {it} verification ({ver.status}): {ver.describe()}"
+            f"iteration {it} verification ({ver.status}"
+            + (f", {ver.sweep.attrs['passes']} passes" if "passes" in ver.sweep.attrs else "")
+            + f"): {ver.describe()}"
             + (
                 ""
                 if region is None

@@ -111,7 +111,7 @@ def test_how_many_passes() -> None:
     assert target_reach_hz(0.1, 0.002) == pytest.approx(0.025)
 
 
-def _run(tmp_path: Path, max_passes: int) -> tuple[Path, dict]:
+def _run(tmp_path: Path, max_passes: int, resume: bool = False) -> tuple[Path, dict]:
     device = get_registry().device("random-gyro", seed=SEED, noise=1e-3)
     config = {
         "device": {"name": "random-gyro", "seed": SEED, "noise": 1e-3},
@@ -126,7 +126,7 @@ def _run(tmp_path: Path, max_passes: int) -> tuple[Path, dict]:
         "experiment": {"max_passes": max_passes},
     }
     out = tmp_path / f"run{max_passes}"
-    tune(config, out, device=device, plots=False)
+    tune(config, out, device=device, plots=False, resume=resume)
     return out, json.loads((out / "summary.json").read_text())
 
 
@@ -136,5 +136,10 @@ def test_a_run_saves_every_pass_and_counts_it(tmp_path: Path) -> None:
     assert passes  # a noisy 28 kHz gyro's windows are averaged
     files = [p for p in out.glob("iter*/*.nc") if "model" not in p.name]
     assert summary["points"] == sum(xr.open_dataset(p).sizes["frequency"] for p in files)
+    # --resume reads every pass back and ends where the run ended
+    stamps = {p: p.stat().st_mtime_ns for p in passes}
+    _, again = _run(tmp_path, 8, resume=True)
+    assert (again["bias"], again["points"]) == (summary["bias"], summary["points"])
+    assert {p: p.stat().st_mtime_ns for p in passes} == stamps  # nothing measured again
     plain, _ = _run(tmp_path, 1)
     assert not list(plain.glob("iter*/*-pass*.nc"))
