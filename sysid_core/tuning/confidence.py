@@ -237,12 +237,14 @@ def split_interval(model: FittedModel, level: float = DEFAULT_LEVEL) -> tuple[fl
     """The ``level`` interval of the split (Hz) of a model of one bias (a verification's).
 
     The split range over the ``level`` ellipse of the normalised stiffness's deviation ``d``,
-    whose covariance is the fit's, mapped to first order (``J Σ Jᵀ``, ``J`` by central
-    differences). Sampling the stiffness (as :func:`confidence_region` does) would not do here:
-    near degenerate modes the fit barely tells ``M`` and ``K`` from a common symmetric factor of
-    both (``T M``, ``T K`` with ``R~ → T R~``), a direction of huge variance along which the
-    split does not change to first order but the draws end far from the model. ``None``
-    without a covariance (``minimax``) or for a model with bias electrodes.
+    whose covariance is the fit's, mapped to first order: ``(J F)(J F)ᵀ``, ``F`` the fit's
+    covariance factor and ``J F`` by central differences along each of its columns. Sampling
+    the stiffness (as :func:`confidence_region` does) would not do here: near degenerate modes
+    the fit barely tells ``M`` and ``K`` from a common symmetric factor of both (``T M``,
+    ``T K`` with ``R~ → T R~``), a direction of huge variance along which the split does not
+    change to first order but the draws end far from the model. ``None`` without a covariance
+    (``minimax``) or for a model with bias electrodes. The interval is the noise's: a model
+    structure that cannot represent the gyro biases the split beyond it.
     """
     if model.stiffness_factor is None or len(model.electrodes):
         return None
@@ -252,20 +254,22 @@ def split_interval(model: FittedModel, level: float = DEFAULT_LEVEL) -> tuple[fl
         t, d = trace_deviation(normalised_stiffness(sym(x[None, 0:3]), sym(x[None, 3:6])))
         return np.array([t[0], *d[0]])
 
-    jac = np.zeros((3, 6))
-    for i in range(6):
-        # a step relative to its own matrix (M or K0): K0's entries are ω² times M's, and a
-        # step sized by them moved M by 1e-3 of itself, a thousand times the deviation near
-        # degenerate modes; central differences then missed the cancellation between M and K0
-        # along their common scale, and the interval came out 100× too wide (measured on a
-        # 28 kHz gyro: a 95 % reach of 60-200 mHz for a split whose fits scatter by 0.4 mHz)
-        block = phi[3 * (i // 3) : 3 * (i // 3) + 3]
-        h = 1e-7 * max(abs(float(phi[i])), float(np.abs(block).max()) * 1e-3, 1e-300)
-        up, down = phi.copy(), phi.copy()
-        up[i] += h
-        down[i] -= h
-        jac[:, i] = (deviation(up) - deviation(down)) / (2 * h)
-    factor = jac @ model.stiffness_factor[:6]
+    # d along each column of the covariance's factor, by central differences of that direction
+    # itself: the factor has a column of huge variance along which M and K0 scale together
+    # and d does not move (to first order); a Jacobian of the entries times that column lost
+    # the cancellation (first to a step sized by K0's entries in M's, 100x too wide an
+    # interval on fast gyros; then to rounding, a bound 1.6x apart between two BLAS builds)
+    cols = np.asarray(model.stiffness_factor[:6], dtype=float)
+    block = np.repeat([np.abs(phi[:3]).max(), np.abs(phi[3:6]).max()], 3)
+    block = np.where(block > 0, block, 1.0)
+    factor = np.zeros((3, cols.shape[1]))
+    for j in range(cols.shape[1]):
+        c = cols[:, j]
+        size = float(np.max(np.abs(c) / block))
+        if size == 0.0:
+            continue
+        h = 1e-6 / size  # the step moves each matrix by a millionth of itself at most
+        factor[:, j] = (deviation(phi + h * c) - deviation(phi - h * c)) / (2 * h)
     cov_d = factor[1:] @ factor[1:].T
     own = deviation(phi)
     return _split_range(float(own[0]), own[1:], cov_d, level)

@@ -19,9 +19,10 @@ ACCEPTANCE = 0.002
 
 
 def test_an_unresolved_split_is_not_converged(tmp_path: Path) -> None:
-    """Random gyro 108 (18.4 kHz, bandwidths 0.55 and 2.6 Hz): its window measured 1.3 mHz
-    while the true split was 9.4 mHz, and the run claimed convergence. The split's 95 % upper
-    bound (21 mHz) now keeps it from doing so."""
+    """Random gyro 108 (18.4 kHz, bandwidths 0.55 and 2.6 Hz) fitted with ``act`` (it has input
+    dynamics): its window measured 1.3 mHz while the true split was 9.4 mHz, and the run claimed
+    convergence. The split's 95 % upper bound (6.0 mHz) now keeps it from doing so. The bound
+    does not reach the truth: it is the noise's, and the structure's bias is beyond it."""
     device = get_registry().device("random-gyro", seed=108)
     config = {
         "device": {"name": "random-gyro", "seed": 108},
@@ -40,7 +41,6 @@ def test_an_unresolved_split_is_not_converged(tmp_path: Path) -> None:
     assert not result.converged
     bound = [g for g in result.goals if g["name"] == "split 95 % upper bound"]
     assert bound and not bound[0]["met"]
-    assert bound[0]["value_hz"] >= true_split  # the interval holds the truth
     assert "split 95 % upper bound" in result.status
 
 
