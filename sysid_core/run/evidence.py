@@ -63,7 +63,7 @@ __all__ = [
 FIT_TOLERANCE = 0.2
 #: Largest relative response error of the single-bias fit of a whole-band sweep.
 BAND_FIT_TOLERANCE = 0.35
-#: A sweep's measured noise may add this many times its relative norm to the fit's limit.
+#: A narrow window's measured noise may add this many times its relative norm to its fit's limit.
 NOISE_ALLOWANCE = 1.5
 #: The data's peak must exceed the response at both window edges by this factor.
 PEAK_TO_EDGE = 3.0
