@@ -89,19 +89,29 @@ def settle(
         return value, "device"
     if cfg_settle is not None:
         return float(cfg_settle), "config"
-    if model is None:
+    modes = _fitted_modes(model)
+    if modes is None:
         return None, None
+    f, q = modes
+    tau = float(np.max(q / (math.pi * f)))  # 2Q/ω of the slowest mode
+    return SETTLE_TIME_CONSTANTS * tau, "estimated 3 τ"
+
+
+def _fitted_modes(model: FittedModel | None) -> tuple[np.ndarray, np.ndarray] | None:
+    """The frequencies (Hz) and Q of ``model``'s modes at its fit's bias, or None.
+
+    Only modes with a finite positive frequency and Q; None without a model or such a mode.
+    """
+    if model is None:
+        return None
     try:
         report = model.modal(model.meta.get("fit_bias", [[0.0] * model.n_electrodes])[0])
     except Exception:  # a model without modes there: nothing to estimate from
-        return None, None
+        return None
     f = np.asarray(report.frequencies_hz, dtype=float)
     q = np.asarray(report.q, dtype=float)
     ok = np.isfinite(q) & (q > 0) & np.isfinite(f) & (f > 0)
-    if not np.any(ok):
-        return None, None
-    tau = float(np.max(q[ok] / (math.pi * f[ok])))  # 2Q/ω of the slowest mode
-    return SETTLE_TIME_CONSTANTS * tau, "estimated 3 τ"
+    return (f[ok], q[ok]) if np.any(ok) else None
 
 
 def _positive(value: object) -> float | None:
@@ -125,14 +135,9 @@ def dwell(
         return own, "device"
     if cfg_dwell is not None:
         return float(cfg_dwell), "config"
-    if model is None:
+    modes = _fitted_modes(model)
+    if modes is None:
         return None, None
-    try:
-        report = model.modal(model.meta.get("fit_bias", [[0.0] * model.n_electrodes])[0])
-    except Exception:  # a model without modes there: nothing to estimate from
-        return None, None
-    omega = 2 * math.pi * float(min(report.frequencies_hz))
-    q = float(max(report.q))
-    if not (math.isfinite(q) and q > 0 and omega > 0):
-        return None, None
-    return DWELL_TIME_CONSTANTS * q / omega, "estimated 5 Q/ω"
+    f, q = modes
+    # the sharpest mode's Q over the lowest frequency: the longest a point can need
+    return DWELL_TIME_CONSTANTS * float(q.max()) / (2 * math.pi * float(f.min())), "estimated 5 Q/ω"
