@@ -4,6 +4,12 @@ The run's fit keeps its bias law; :class:`Tracker` anchors that model on the run
 windows (:func:`sysid_core.identification.anchor.anchor`: a stiffness offset, and its rate once
 two verifications are at hand) and moves it ahead to the middle of the next verification window:
 the latest time stamp, plus the settling after the bias change, plus half a window.
+
+A window measured before a local design is stale by the design's duration (four sweeps: 90-110 s
+on a 25 kHz gyro, in which charging moves the split by 2-4 mHz); when the latest window verified a
+near-degenerate split and sweeps were measured after it, :meth:`Tracker.stale` says so and the
+run measures the window again at its bias (:meth:`Tracker.refreshed`): the answer is then anchored
+on a window seconds old, and the two measurements of one bias give the drift's rate.
 """
 
 from __future__ import annotations
@@ -60,6 +66,26 @@ class Tracker:
         if ver.verified and ver.split_hz is not None and t.size == ver.sweep["frequency"].size:
             self.windows.append(ver.sweep)
             self.splits.append(float(ver.split_hz))
+
+    def stale(self, ds: xr.Dataset) -> xr.Dataset | None:
+        """The latest window, to be measured again, or None.
+
+        Only a window that verified a split under ``near_hz`` and that ``ds`` has points
+        measured after (a design measured since) is stale.
+        """
+        if not self.windows or self.splits[-1] > self.near_hz:
+            return None
+        last, stamps = _times(self.windows[-1]), _times(ds)
+        if not last.size or not stamps.size:
+            return None
+        return self.windows[-1] if float(stamps.max()) > float(last.max()) else None
+
+    def refreshed(self, sweep: xr.Dataset, split_hz: float | None) -> None:
+        """Keep ``sweep``, the latest window measured again, if it verified ``split_hz``."""
+        t = _times(sweep)
+        if split_hz is not None and t.size == sweep["frequency"].size:
+            self.windows.append(sweep)
+            self.splits.append(float(split_hz))
 
     def anchoring(self) -> list[xr.Dataset]:
         """The latest window, and up to ``keep - 1`` earlier ones with a split under ``near_hz``.

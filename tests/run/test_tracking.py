@@ -63,6 +63,12 @@ def test_tracking_tunes_a_charging_gyro_that_the_average_model_cannot(tmp_path: 
     assert summary["drift_split_hz_per_h"] is not None
     assert any("anchored on" in line for line in lines)
     assert (tmp_path / "track" / "iter03" / "model-now.nc").exists()
+    # the window verified before a local design was measured again after it, and anchored
+    again = sorted((tmp_path / "track").glob("iter*/window-again.nc"))
+    assert again, "no window measured again"
+    it = int(again[0].parent.name[4:])
+    anchored = [line for line in lines if line.startswith(f"iteration {it}: the model anchored")]
+    assert anchored and "on 2 verified window(s)" in anchored[0]
 
 
 def _verification(split: float, t0: float) -> Verification:
@@ -89,3 +95,20 @@ def test_only_windows_near_degenerate_modes_anchor_beside_the_latest() -> None:
     not_verified.status = "located"
     tracker.learned(not_verified)
     assert len(tracker.windows) == 6
+
+
+def test_a_window_older_than_the_sweeps_after_it_is_stale() -> None:
+    """The latest window is measured again only if it verified a near split and sweeps were
+    measured after it; the refreshed window then anchors with the others."""
+    tracker = Tracker(settle_s=10.0, near_hz=0.02)
+    assert tracker.stale(_verification(0.001, 0.0).sweep) is None  # no window yet
+    tracker.learned(_verification(0.5, 0.0))
+    later = _verification(0.001, 50.0).sweep
+    assert tracker.stale(later) is None  # far from degenerate: the law's error dominates
+    tracker.learned(_verification(0.005, 100.0))
+    assert tracker.stale(_verification(0.001, 100.0).sweep) is None  # nothing after it
+    stale = tracker.stale(_verification(0.001, 150.0).sweep)
+    assert stale is not None and float(stale["time_s"].values.min()) == 100.0
+    tracker.refreshed(_verification(0.004, 200.0).sweep, 0.004)
+    tracker.refreshed(_verification(0.004, 300.0).sweep, None)  # did not verify a split
+    assert [float(w["time_s"].values.min()) for w in tracker.anchoring()] == [100.0, 200.0]
