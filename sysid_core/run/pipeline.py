@@ -36,7 +36,6 @@ import xarray as xr
 
 from sysid_core.data.io import write_json
 from sysid_core.data.runfolder import RunFolder
-from sysid_core.data.schema import requested_bias
 from sysid_core.device.measuring import GuardedDevice, check_bias
 from sysid_core.device.protocol import Device, ReportsProgress
 from sysid_core.errors import ConfigError
@@ -301,9 +300,7 @@ class TuningRun:
         # the device's or the configuration's settling, else estimated from this fit's Q
         known = settle(self.bench.device.device, self.config.experiment.settle_s, model)[0]
         self.tracker.settle_s = float(known or 0.0)
-        stale = self.tracker.stale(ds)
-        if stale is not None:
-            self._refresh(it, stale)
+        self.tracker.refresh(ds, self.protocol.sweep, self.out / f"iter{it:02d}", self.say, it)
         now = self.tracker.now(model, ds, self.say, it)
         seen = self.tracker.rates
         if seen is not None:
@@ -312,20 +309,6 @@ class TuningRun:
         if now is not model:
             now.save(self.out / f"iter{it:02d}" / "model-now.nc")
         return now
-
-    def _refresh(self, it: int, stale: xr.Dataset) -> None:
-        """Measure the latest verified window again (sweeps were measured after it)."""
-        bias = requested_bias(stale)
-        freqs = np.asarray(stale["frequency"].values, dtype=float)
-        self.say(
-            f"iteration {it}: the latest verified window is older than the design measured "
-            "since; measuring it again"
-        )
-        sweep, _, evidence = self.protocol.sweep(
-            bias, freqs, self.out / f"iter{it:02d}" / "window-again.nc", False
-        )
-        if evidence.ok and self.tracker is not None:
-            self.tracker.refreshed(sweep, evidence.split_hz)
 
     def _answer(self, it: int, model: FittedModel, bias: np.ndarray, folder: Path) -> Answer:
         """Step 3 at the current ``bias`` (:func:`sysid_core.run.answer.answer`).

@@ -16,16 +16,25 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
+from sysid_core.data.schema import requested_bias
 from sysid_core.identification.anchor import anchor
 from sysid_core.identification.drift import OffsetDrift, offset_drift
 from sysid_core.model.fitted import FittedModel
+from sysid_core.run.evidence import WindowAssessment
 from sysid_core.run.verification import Verification
 
 __all__ = ["NEAR_ACCEPTANCES", "Tracker"]
+
+#: Measures, saves and judges a sweep: ``(bias, frequencies, path, band)`` to ``(sweep, its
+#: single-bias model, evidence)`` (the protocol's :meth:`~sysid_core.run.protocols.Protocol.sweep`).
+Sweep = Callable[
+    [np.ndarray, np.ndarray, Path, bool], tuple[xr.Dataset, FittedModel, WindowAssessment]
+]
 
 #: Earlier windows anchor the model when their split was under this many acceptances.
 NEAR_ACCEPTANCES = 10.0
@@ -79,6 +88,31 @@ class Tracker:
         if not last.size or not stamps.size:
             return None
         return self.windows[-1] if float(stamps.max()) > float(last.max()) else None
+
+    def refresh(
+        self,
+        ds: xr.Dataset,
+        sweep: Sweep,
+        folder: Path,
+        say: Callable[[str], None],
+        it: int,
+    ) -> None:
+        """Measure the latest window again if it is :meth:`stale` (``window-again.nc``).
+
+        ``sweep(bias, frequencies, path, band)`` measures, saves and judges a sweep (the
+        protocol's); the window is kept if its evidence holds.
+        """
+        stale = self.stale(ds)
+        if stale is None:
+            return
+        say(
+            f"iteration {it}: the latest verified window is older than the design measured "
+            "since; measuring it again"
+        )
+        freqs = np.asarray(stale["frequency"].values, dtype=float)
+        again, _, evidence = sweep(requested_bias(stale), freqs, folder / "window-again.nc", False)
+        if evidence.ok:
+            self.refreshed(again, evidence.split_hz)
 
     def refreshed(self, sweep: xr.Dataset, split_hz: float | None) -> None:
         """Keep ``sweep``, the latest window measured again, if it verified ``split_hz``."""
