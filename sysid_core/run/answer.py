@@ -29,7 +29,7 @@ from sysid_core.tuning.criteria import (
     solve_criterion,
 )
 
-__all__ = ["Answer", "answer", "apply_best_code", "best_effort"]
+__all__ = ["Answer", "answer", "answer_or_every_sweep", "apply_best_code", "best_effort"]
 
 
 @dataclass(frozen=True)
@@ -46,11 +46,14 @@ class Answer:
     moved : bool
         The answer is a move to the best reachable bias (the model found its goal
         unreachable; a model identified there decides).
+    model : FittedModel or None
+        The model it was solved from.
     """
 
     result: TuningResult
     bias: np.ndarray
     moved: bool
+    model: FittedModel | None = None
 
 
 def answer(
@@ -84,7 +87,57 @@ def answer(
         space,
         applied_bias=applied_bias(device.device, bias),
     )
-    return Answer(result, bias, moved)
+    return Answer(result, bias, moved, model)
+
+
+def answer_or_every_sweep(
+    criterion: TuningCriterion,
+    model: FittedModel,
+    space: BiasSpace,
+    device: GuardedDevice,
+    it: int,
+    *,
+    bias_step: float,
+    last_iteration: bool,
+    say: Callable[[str], None],
+    every_sweep: Callable[[], FittedModel | None],
+) -> Answer:
+    """:func:`answer`; if its model finds the goal unreachable, the model of every sweep's.
+
+    ``every_sweep()`` fits every sweep of the run (None when ``model`` already did). Its
+    answer is taken only if it reaches the goal; otherwise ``model``'s stands (a move to the
+    best reachable bias, or the error).
+    """
+    error: UnreachableTuningError | None = None
+    step: Answer | None = None
+    kwargs = {"bias_step": bias_step, "last_iteration": last_iteration, "say": say}
+    try:
+        step = answer(criterion, model, space, device, it, **kwargs)  # type: ignore[arg-type]
+    except UnreachableTuningError as exc:
+        error = exc
+    if step is not None and not step.moved:
+        return step
+    other = every_sweep()
+    # its law is solved from the current bias and from the middle of the limits: from a bias
+    # at a limit, the repeated linearization of a quadratic law may stay at that limit
+    middle = np.array(space.start_bias, dtype=float)
+    middle[space.index] = 0.5 * (space.limits[0] + space.limits[1])
+    starts = [] if other is None else [space, dataclasses.replace(space, start_bias=middle)]
+    for start in starts:
+        assert other is not None
+        try:
+            solve_criterion(criterion, other, start)
+        except UnreachableTuningError:
+            continue
+        say(
+            f"iteration {it}: the fit of every sweep so far reaches the goal inside the "
+            "limits; answering from it"
+        )
+        return answer(criterion, other, start, device, it, **kwargs)  # type: ignore[arg-type]
+    if step is None:
+        assert error is not None
+        raise error
+    return step
 
 
 def best_effort(

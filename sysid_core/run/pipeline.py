@@ -42,7 +42,7 @@ from sysid_core.errors import ConfigError
 from sysid_core.identification.objective import Progress
 from sysid_core.model.fitted import FittedModel
 from sysid_core.plugin.registry import Registry, get_registry
-from sysid_core.run.answer import Answer, answer
+from sysid_core.run.answer import Answer, answer_or_every_sweep
 from sysid_core.run.bench import Bench
 from sysid_core.run.benchtime import dwell, settle, tones
 from sysid_core.run.components import build_components
@@ -216,6 +216,7 @@ class TuningRun:
             fit_time = time.perf_counter() - t0
             now = model if self.tracker is None else self._track(it, model, ds)
             step = self._answer(it, now, bias, folder)
+            now = step.model or now  # the fit of every sweep, if the local one fell short
             regions.append(step.result.confidence)
             ver = self.protocol.verify(step.bias, step.result, now, folder)
             ver.model.save(folder / "verify-model.nc")
@@ -322,7 +323,12 @@ class TuningRun:
             self.space.limits,
             self.space.structure_potential,
         )
-        step = answer(
+
+        def every_sweep() -> FittedModel | None:
+            ds = self.protocol.every_sweep(it, bias)
+            return None if ds is None else self.fitter.fit(ds)[0]
+
+        step = answer_or_every_sweep(
             self.criterion,
             model,
             space,
@@ -331,6 +337,7 @@ class TuningRun:
             bias_step=self.config.experiment.bias_step,
             last_iteration=it >= self.config.tuning.max_iterations,
             say=self.say,
+            every_sweep=every_sweep,
         )
         result = step.result
         write_json(folder / "tuning.json", result.as_dict())

@@ -18,20 +18,16 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
 from sysid_core.data.schema import concat_experiments
-from sysid_core.data.validation import check_rank_condition
 from sysid_core.errors import ConfigError
 from sysid_core.model.fitted import FittedModel
-from sysid_core.run.bench import Bench
-from sysid_core.run.config import PipelineConfig
+from sysid_core.run.context import RunContext
 from sysid_core.run.evidence import WindowAssessment
-from sysid_core.run.fitter import Fitter
 from sysid_core.run.knowledge import Knowledge
 from sysid_core.run.lean import (
     EXPLAIN_FLOOR_HZ,
@@ -46,49 +42,14 @@ from sysid_core.run.lean import (
 )
 from sysid_core.run.passes import repeat_window
 from sysid_core.run.previous import PreviousModel
-from sysid_core.run.sweeps import SweepPlan, design_experiments
+from sysid_core.run.sweeps import SweepPlan
 from sysid_core.run.verification import Verification, verify
-from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion, TuningResult
+from sysid_core.tuning.criteria import ConfidenceRegion, TuningResult
 
 __all__ = ["FullProtocol", "LeanProtocol", "Prefit", "Protocol", "RunContext", "make_protocol"]
 
 #: A fit already made of the data an iteration will fit: the data, the model, its notes.
 Prefit = tuple[xr.Dataset, FittedModel, list[str]]
-
-
-@dataclass
-class RunContext:
-    """What every protocol works with."""
-
-    config: PipelineConfig
-    space: BiasSpace
-    plan: SweepPlan
-    bench: Bench
-    fitter: Fitter
-    say: Callable[[str], None]
-
-    def step(self, it: int) -> float:
-        """The bias step of iteration ``it`` (volts)."""
-        exp = self.config.experiment
-        return exp.bias_step if it == 1 or exp.refine_bias_step is None else exp.refine_bias_step
-
-    def design(self, bias: np.ndarray, it: int = 1) -> np.ndarray:
-        """The experiments of eq. (18) around ``bias``, checked against the rank condition (6).
-
-        The design is two-sided unless the law is linear or the design says otherwise.
-        """
-        exp, law = self.config.experiment, self.config.model.stiffness
-        two_sided = exp.design == "two-sided" or (exp.design is None and law != "linear")
-        design = design_experiments(
-            bias, self.space.index, self.step(it), self.space.limits, two_sided=two_sided
-        )
-        check_rank_condition(
-            design[:, self.space.index],
-            self.space.structure_potential,
-            self.space.tuned,
-            quadratic=law == "quadratic",
-        )
-        return design
 
 
 class Protocol(ABC):
@@ -111,6 +72,10 @@ class Protocol(ABC):
         self, bias: np.ndarray, predicted: TuningResult, model: FittedModel, folder: Path
     ) -> Verification:
         """Step 4 at ``bias``, with evidence (:func:`sysid_core.run.verification.verify`)."""
+
+    def every_sweep(self, it: int, bias: np.ndarray) -> xr.Dataset | None:
+        """Every sweep so far, if iteration ``it`` fitted fewer (None: it fitted them all)."""
+        return None
 
     def learned(
         self,
@@ -246,6 +211,20 @@ class LeanProtocol(Protocol):
             )
             return self.known.union(), None
         return self.known.near(bias, radius), None
+
+    def every_sweep(self, it: int, bias: np.ndarray) -> xr.Dataset | None:
+        """Every sweep so far, if the run fits only the sweeps near ``bias`` (and there are more).
+
+        A local fit that finds the goal unreachable extrapolates from a few tenths of a volt;
+        the sweeps of the whole run may span the answer (random gyro 119 at 60 dB: stuck at
+        B2 = 10 V by local fits, 5 Hz off, while the fit of all its sweeps answered 0.4 V from
+        the true degenerate bias).
+        """
+        if not self.local or self.previous is not None:
+            return None
+        near = self.known.near(bias, LOCAL_RADIUS * self.ctx.step(it))
+        every = self.known.union()
+        return every if every.sizes["experiment"] > near.sizes["experiment"] else None
 
     def verify(
         self, bias: np.ndarray, predicted: TuningResult, model: FittedModel, folder: Path

@@ -1,0 +1,56 @@
+"""What every measuring protocol of a run works with (:class:`RunContext`)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from sysid_core.data.validation import check_rank_condition
+from sysid_core.run.bench import Bench
+from sysid_core.run.config import PipelineConfig
+from sysid_core.run.fitter import Fitter
+from sysid_core.run.sweeps import SweepPlan, design_experiments
+from sysid_core.tuning.criteria import BiasSpace
+
+__all__ = ["RunContext"]
+
+
+@dataclass
+class RunContext:
+    """What every protocol works with.
+
+    The configuration, the bias space, the sweeps' plan, the bench, the fitter and the
+    progress callback.
+    """
+
+    config: PipelineConfig
+    space: BiasSpace
+    plan: SweepPlan
+    bench: Bench
+    fitter: Fitter
+    say: Callable[[str], None]
+
+    def step(self, it: int) -> float:
+        """The bias step of iteration ``it`` (volts)."""
+        exp = self.config.experiment
+        return exp.bias_step if it == 1 or exp.refine_bias_step is None else exp.refine_bias_step
+
+    def design(self, bias: np.ndarray, it: int = 1) -> np.ndarray:
+        """The experiments of eq. (18) around ``bias``, checked against the rank condition (6).
+
+        The design is two-sided unless the law is linear or the design says otherwise.
+        """
+        exp, law = self.config.experiment, self.config.model.stiffness
+        two_sided = exp.design == "two-sided" or (exp.design is None and law != "linear")
+        design = design_experiments(
+            bias, self.space.index, self.step(it), self.space.limits, two_sided=two_sided
+        )
+        check_rank_condition(
+            design[:, self.space.index],
+            self.space.structure_potential,
+            self.space.tuned,
+            quadratic=law == "quadratic",
+        )
+        return design

@@ -1,0 +1,39 @@
+"""A local fit that finds the goal unreachable: the fit of every sweep so far may reach it.
+
+Truth: random gyro 119 (25.8 kHz, input dynamics, degenerate near B1 = 5.67 V, B2 = 4.13 V,
+42.8 Hz apart at 0 V) at 60 dB SNR. Its first fit, from ±1 V around 0 V, puts the degenerate bias
+outside the limits; the run moves to the best reachable bias (B2 = 10 V) and from then on fits
+the sweeps near its bias, whose ±0.25 V designs cannot see the curvature that brings the modes
+together 6 V away. Measured before the fallback: stuck at B2 = 10 V, 5.2 Hz at the end of 4
+iterations; with it, the third iteration answers from the fit of every sweep and the fourth
+ends at 20 mHz.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from sysid_core import tune
+from sysid_core.plugin.registry import get_registry
+
+
+def test_a_run_stuck_at_a_limit_answers_from_every_sweep(tmp_path: Path) -> None:
+    device = get_registry().device(
+        "random-gyro", seed=119, noise=1e-3, bench={"clock": True, "seed": 119}
+    )
+    config = {
+        "device": {"name": "random-gyro", "seed": 119, "noise": 1e-3},
+        "model": {"structure": device.structure},
+        "tuning": {
+            "criterion": "degenerate",
+            "electrodes": ["B1", "B2"],
+            "start_bias": [0.0] * len(device.electrodes),
+            "acceptance_hz": 0.002,
+            "max_iterations": 4,
+        },
+    }
+    lines: list[str] = []
+    result = tune(config, tmp_path, device=device, plots=False, progress=lines.append)
+    assert any("the fit of every sweep so far reaches the goal" in line for line in lines)
+    assert device.true_split_hz(result.bias) < 0.2  # 5.2 Hz without the fallback
+    assert abs(result.bias[1] - 4.13) < 0.5  # away from the limit, near the true bias
