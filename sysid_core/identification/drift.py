@@ -55,10 +55,15 @@ class Timing:
     offsets: bool = False
     trend: bool = False
     mass_shape: np.ndarray | None = None
+    #: Per measured point, a weight of its equation errors (see
+    #: :func:`sysid_core.identification.reweighting.refit`), or None.
+    point_weights: np.ndarray | None = None
 
-    def problem_args(self) -> tuple[float, bool, bool, np.ndarray | None]:
+    def problem_args(
+        self,
+    ) -> tuple[float, bool, bool, np.ndarray | None, np.ndarray | None]:
         """The drift arguments of :class:`~sysid_core.identification.problem.FitProblem`."""
-        return self.rate, self.offsets, self.trend, self.mass_shape
+        return self.rate, self.offsets, self.trend, self.mass_shape, self.point_weights
 
 
 #: A time-invariant fit.

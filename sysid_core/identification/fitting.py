@@ -69,6 +69,7 @@ def fit_structure(
     offsets: bool = False,
     trend: bool = False,
     mass_shape: np.ndarray | None = None,
+    point_weights: np.ndarray | None = None,
 ) -> tuple[FittedModel, list[str]]:
     """Fit ``structure`` to ``dataset`` with ``objective`` and ``solver``.
 
@@ -82,7 +83,8 @@ def fit_structure(
     the shape ``mass_shape`` (default: identity)
     (:class:`~sysid_core.identification.problem.FitProblem`); the model is the gyro of the
     latest epoch. ``trend``: a stiffness trend in time, the model is the gyro at the latest time
-    stamp (data without time stamps at every point are fitted without).
+    stamp (data without time stamps at every point are fitted without). ``point_weights``: a
+    weight per measured point (:class:`~sysid_core.identification.problem.FitProblem`).
     """
     notes: list[str] = []
     rate = 0.0
@@ -93,7 +95,7 @@ def fit_structure(
             notes.append("no time stamps at every point: the drift is not modelled")
     elif drift is not False:
         rate = float(drift) if has_time_stamps(dataset) else 0.0
-    timing = Timing(rate, offsets, trend and has_time_stamps(dataset), mass_shape)
+    timing = Timing(rate, offsets, trend and has_time_stamps(dataset), mass_shape, point_weights)
     if getattr(structure, "stiffness", "linear") == "auto":
         model = _fit_auto_law(dataset, structure, objective, solver, progress, timing)
     else:

@@ -32,6 +32,10 @@ error as :math:`n Z` (or :math:`Z n`), so a point's equation-error noise is prop
 response noise, and the weighted errors have the same noise level everywhere. Equal variances
 (or a point without one) leave the rows as they are. Everything computed from ``G`` (the
 objectives, ``gram``, ``residuals``, the covariance) sees the weighted problem.
+
+Point weights (``point_weights``) multiply the noise weights: the refit of
+:mod:`sysid_core.identification.reweighting` weights each point by ``1/‖Z‖`` of a previous fit,
+since the noise enters the equation error multiplied by ``Z``.
 """
 
 from __future__ import annotations
@@ -149,6 +153,7 @@ class FitProblem:
         offsets: bool = False,
         trend: bool = False,
         mass_shape: np.ndarray | None = None,
+        point_weights: np.ndarray | None = None,
     ) -> None:
         validate(dataset)
         self.dataset = dataset
@@ -210,6 +215,13 @@ class FitProblem:
         #: Every point's noise variance (mean over its channels; None unless every point has
         #: one) and the weight of its equation errors (None: all equal), see the module doc.
         self.noise_variance, self.weights = noise_weights(dataset, k_idx, q_idx)
+        #: Per point, a weight multiplying the noise weight (None: all equal).
+        self.point_weights = None if point_weights is None else np.asarray(point_weights, float)
+        if self.point_weights is not None and self.point_weights.shape != (k_idx.size,):
+            raise ValueError(
+                f"point_weights has shape {self.point_weights.shape}; the data have "
+                f"{k_idx.size} points"
+            )
         self.G = self._operator()
 
     @property
@@ -288,8 +300,8 @@ class FitProblem:
                 g[:, r, col, sl.start + 4 + e] = 1j * factor
         flat = g.reshape(n_pts, 4, lay.n)
         rows = np.concatenate([flat.real, flat.imag], axis=1)
-        if self.weights is not None:
-            rows *= self.weights[:, None, None]
+        for weights in (self.weights, self.point_weights):
+            rows *= 1.0 if weights is None else weights[:, None, None]
         return np.ascontiguousarray(rows)
 
     # ----------------------------------------------------------------- evaluation

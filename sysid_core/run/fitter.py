@@ -10,6 +10,7 @@ import xarray as xr
 from sysid_core.conic.program import Solver
 from sysid_core.identification.fitting import fit_structure
 from sysid_core.identification.objective import Objective
+from sysid_core.identification.reweighting import refit
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.structures import ModelStructure
 from sysid_core.run.evidence import WindowAssessment, assess_window
@@ -84,7 +85,12 @@ class Fitter:
         A window without both modes is expected here: the evidence says so, not the fit's notes.
         """
         single = sweep.isel(electrode=[])
-        model, _ = fit_structure(
-            single, self.structure, self.objective, self.solver, drift=self.rate or False
-        )
+        if band:
+            model, _ = fit_structure(
+                single, self.structure, self.objective, self.solver, drift=self.rate or False
+            )
+        else:  # a narrow window measures the split: weighted as its noise enters (refit)
+            model, _ = refit(
+                single, self.structure, self.objective, self.solver, drift=self.rate or False
+            )
         return model, assess_window(sweep, model, band=band)
