@@ -154,11 +154,15 @@ class Tracker:
         at = max(found.t_ref, float(stamps.max()) if stamps.size else found.t_ref) + self.ahead_s()
         moved = found.model_at(model, at)
         self.rates = seen = offset_drift(moved)
+        split = (
+            "split's rate not told from the noise"
+            if seen is None or abs(seen.split_hz_per_h) < 1e-9
+            else f"split {seen.split_hz_per_h * 1e3:.3g} mHz/h"
+        )
         rates = (
             ""
             if seen is None
-            else f"; drift {seen.common_hz_per_h * 1e3:+.4g} mHz/h common, split "
-            f"{seen.split_hz_per_h * 1e3:.3g} mHz/h"
+            else f"; drift {seen.common_hz_per_h * 1e3:+.4g} mHz/h common, {split}"
         )
         say(
             f"iteration {it}: the model anchored on {found.sweeps} verified window(s), "

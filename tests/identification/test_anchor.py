@@ -103,3 +103,29 @@ def test_a_window_without_time_stamps_is_refused() -> None:
         anchor(model, [ds])
     with pytest.raises(DataError, match="no sweep"):
         anchor(model, [])
+
+
+def _split_rate(model, found) -> float:
+    seen = offset_drift(found.model_at(model, found.t_ref))
+    assert seen is not None
+    return abs(seen.split_hz_per_h)
+
+
+def test_windows_seconds_apart_on_a_still_gyro_give_no_split_rate() -> None:
+    """Noise is not a drift: two windows 5 s apart at 60 dB on a gyro that does not drift tell
+    no rate of the split (the Wald test keeps it out; a common rate stays); the same windows of
+    a charging gyro 20 min apart do."""
+    still = CloverleafGyro(seed=1, noise=1e-3, bench={"clock": True})
+    design = design_experiments(np.zeros(3), [0, 1], 1.0, (-10.0, 10.0), two_sided=True)
+    ds = concat_experiments([measured(still, b, F) for b in design]).sel(electrode=["B1", "B2"])
+    model = fit(ds)
+    close = [measured(still, BIAS, window(still)) for _ in range(2)]
+    assert _split_rate(model, anchor(model, close)) < 1e-9
+    charging = CloverleafGyro(
+        seed=1, noise=1e-3, bench={"clock": True, "charging_v_per_h": [0.05, 0.0, 0.0]}
+    )
+    apart = []
+    for _ in range(2):
+        apart.append(measured(charging, BIAS, window(charging)))
+        charging.bench.now_s += 1200.0
+    assert _split_rate(model, anchor(model, apart)) > 0.01  # Hz/h; charging: about 0.04
