@@ -217,16 +217,21 @@ def _bias_panel(
             if hi > lo:
                 err = [[max(b[k, p] - lo, 0.0)], [max(hi - b[k, p], 0.0)]]
                 ax_b.errorbar(k, b[k, p], yerr=err, color=line.get_color(), capsize=4, lw=1)
-                ax_b.annotate(
-                    f"±{0.5 * (hi - lo) * 1e3:.3g} mV",
-                    (k, b[k, p]),
-                    xytext=(6, -3),
-                    textcoords="offset points",
-                    fontsize=7,
-                    color=line.get_color(),
-                )
+                if k == len(regions):  # the last answer's only: earlier labels would overlap
+                    half = 0.5 * (hi - lo)
+                    ax_b.annotate(
+                        f"±{half * 1e3:.3g} mV" if half < 1.0 else f"±{half:.3g} V",
+                        (k, b[k, p]),
+                        xytext=(6, -3 - 9 * p),
+                        textcoords="offset points",
+                        fontsize=7,
+                        color=line.get_color(),
+                    )
     if limits is not None:
         ax_b.axhspan(limits[0], limits[1], color="0.93", zorder=0, label="allowed bias")
+        # the early answers' regions can reach far past the limits: the axis shows the limits
+        margin = 0.15 * (limits[1] - limits[0])
+        ax_b.set_ylim(limits[0] - margin, limits[1] + margin)
     ax_b.set_xticks(steps, ["start", *[str(k) for k in steps[1:]]])
     ax_b.set_xlim(-0.3, steps[-1] + (0.6 if regions else 0.3))
     ax_b.set_xlabel("iteration")
