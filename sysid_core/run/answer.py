@@ -108,11 +108,23 @@ def answer_or_every_sweep(
     answer is taken only if it reaches the goal; otherwise ``model``'s stands (a move to the
     best reachable bias, or the error).
     """
+
+    def solve(with_model: FittedModel, in_space: BiasSpace) -> Answer:
+        return answer(
+            criterion,
+            with_model,
+            in_space,
+            device,
+            it,
+            bias_step=bias_step,
+            last_iteration=last_iteration,
+            say=say,
+        )
+
     error: UnreachableTuningError | None = None
     step: Answer | None = None
-    kwargs = {"bias_step": bias_step, "last_iteration": last_iteration, "say": say}
     try:
-        step = answer(criterion, model, space, device, it, **kwargs)  # type: ignore[arg-type]
+        step = solve(model, space)
     except UnreachableTuningError as exc:
         error = exc
     if step is not None and not step.moved:
@@ -133,7 +145,7 @@ def answer_or_every_sweep(
             f"iteration {it}: the fit of every sweep so far reaches the goal inside the "
             "limits; answering from it"
         )
-        return answer(criterion, other, start, device, it, **kwargs)  # type: ignore[arg-type]
+        return solve(other, start)
     if step is None:
         assert error is not None
         raise error

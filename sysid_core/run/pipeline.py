@@ -216,7 +216,8 @@ class TuningRun:
             fit_time = time.perf_counter() - t0
             now = model if self.tracker is None else self._track(it, model, ds)
             step = self._answer(it, now, bias, folder)
-            now = step.model or now  # the fit of every sweep, if the local one fell short
+            # the fit of every sweep, if the local one fell short
+            now = step.model if step.model is not None else now
             regions.append(step.result.confidence)
             ver = self.protocol.verify(step.bias, step.result, now, folder)
             ver.model.save(folder / "verify-model.nc")
