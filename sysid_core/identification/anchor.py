@@ -194,9 +194,14 @@ def _solve(a: np.ndarray, y: np.ndarray, m: np.ndarray, with_rate: bool) -> np.n
     return x
 
 
-def _least_squares(a: np.ndarray, y: np.ndarray) -> np.ndarray:
+def _column_scale(a: np.ndarray) -> np.ndarray:
     scale = np.linalg.norm(a, axis=0)
     scale[scale == 0] = 1.0
+    return scale
+
+
+def _least_squares(a: np.ndarray, y: np.ndarray) -> np.ndarray:
+    scale = _column_scale(a)
     return np.linalg.lstsq(a / scale, y, rcond=None)[0] / scale
 
 
@@ -213,8 +218,7 @@ def wald_statistic(a: np.ndarray, y: np.ndarray, x: np.ndarray, t: np.ndarray) -
     s2 = float(resid @ resid) / (n - p)
     if s2 == 0.0:
         return float("inf")
-    scale = np.linalg.norm(a, axis=0)
-    scale[scale == 0] = 1.0
+    scale = _column_scale(a)
     ts = t / scale  # t x = (t / scale) (scale x)
     cov = s2 * ts @ np.linalg.pinv((a / scale).T @ (a / scale)) @ ts.T
     value = t @ x

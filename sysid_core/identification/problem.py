@@ -218,9 +218,9 @@ class FitProblem:
         #: Per point, a weight multiplying the noise weight (None: all equal).
         self.point_weights = None if point_weights is None else np.asarray(point_weights, float)
         if self.point_weights is not None and self.point_weights.shape != (k_idx.size,):
-            raise ValueError(
+            raise DataError(
                 f"point_weights has shape {self.point_weights.shape}; the data have "
-                f"{k_idx.size} points"
+                f"{k_idx.size} points: give one weight per measured point"
             )
         self.G = self._operator()
 

@@ -63,9 +63,13 @@ def refit(
     """``fit_structure`` of ``dataset``, then ``refits`` fits weighted by :func:`z_weights`.
 
     The notes are the last fit's. A weighted fit that fails (a solver error) leaves the
-    previous one.
+    previous one. ``drift=True`` searches the common drift rate in the first fit only; the
+    refits undo the rate it found.
     """
     model, notes = fit_structure(dataset, structure, objective, solver, drift=drift)
+    if drift is True:  # the rate the first fit found: the refits do not search it again
+        found = model.meta.get("drift_rate_per_h")
+        drift = float(found) / 3600.0 if found is not None else False
     done = 0
     for _ in range(refits):
         try:

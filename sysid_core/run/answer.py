@@ -29,7 +29,7 @@ from sysid_core.tuning.criteria import (
     solve_criterion,
 )
 
-__all__ = ["Answer", "answer", "answer_or_every_sweep", "apply_best_code", "best_effort"]
+__all__ = ["Answer", "answer", "apply_best_code", "best_effort", "reach_with"]
 
 
 @dataclass(frozen=True)
@@ -66,15 +66,60 @@ def answer(
     bias_step: float,
     last_iteration: bool,
     say: Callable[[str], None],
+    every_sweep: Callable[[], FittedModel | None] | None = None,
 ) -> Answer:
-    """The answer of iteration ``it`` (see the module)."""
-    local = model
+    """The answer of iteration ``it`` (see the module).
+
+    If ``model`` finds the goal unreachable and ``every_sweep()`` gives a model of every sweep
+    of the run (None when ``model`` already is one), that model answers if it reaches the goal
+    (:func:`reach_with`); otherwise :func:`best_effort` decides.
+    """
     try:
         result, local = solve_criterion(criterion, model, space)
     except UnreachableTuningError as exc:
+        other = None if every_sweep is None else every_sweep()
+        found = None if other is None else reach_with(criterion, other, space)
+        if other is not None and found is not None:
+            say(
+                f"iteration {it}: the fit of every sweep so far reaches the goal inside the "
+                "limits; answering from it"
+            )
+            result, local, space = found
+            return _applied(result, local, other, space, device)
         result = best_effort(
             exc, criterion.name, model, space, device, it, bias_step, last_iteration, say
         )
+        local = model
+    return _applied(result, local, model, space, device)
+
+
+def reach_with(
+    criterion: TuningCriterion, model: FittedModel, space: BiasSpace
+) -> tuple[TuningResult, FittedModel, BiasSpace] | None:
+    """``model``'s solution of ``criterion`` if it reaches the goal, else None.
+
+    Solved from ``space``'s bias and from the middle of the limits: from a bias at a limit,
+    the repeated linearization of a quadratic law may stay at that limit.
+    """
+    middle = np.array(space.start_bias, dtype=float)
+    middle[space.index] = 0.5 * (space.limits[0] + space.limits[1])
+    for start in (space, dataclasses.replace(space, start_bias=middle)):
+        try:
+            result, local = solve_criterion(criterion, model, start)
+        except UnreachableTuningError:
+            continue
+        return result, local, start
+    return None
+
+
+def _applied(
+    result: TuningResult,
+    local: FittedModel,
+    model: FittedModel,
+    space: BiasSpace,
+    device: GuardedDevice,
+) -> Answer:
+    """``result`` at the DAC code ``model`` predicts best, checked, with its region."""
     moved = "unreachable" in result.info
     chosen = dataclasses.replace(result)  # the criterion's, before the DAC code
     apply_best_code(model, result, space, device)
@@ -88,68 +133,6 @@ def answer(
         applied_bias=applied_bias(device.device, bias),
     )
     return Answer(result, bias, moved, model)
-
-
-def answer_or_every_sweep(
-    criterion: TuningCriterion,
-    model: FittedModel,
-    space: BiasSpace,
-    device: GuardedDevice,
-    it: int,
-    *,
-    bias_step: float,
-    last_iteration: bool,
-    say: Callable[[str], None],
-    every_sweep: Callable[[], FittedModel | None],
-) -> Answer:
-    """:func:`answer`; if its model finds the goal unreachable, the model of every sweep's.
-
-    ``every_sweep()`` fits every sweep of the run (None when ``model`` already did). Its
-    answer is taken only if it reaches the goal; otherwise ``model``'s stands (a move to the
-    best reachable bias, or the error).
-    """
-
-    def solve(with_model: FittedModel, in_space: BiasSpace) -> Answer:
-        return answer(
-            criterion,
-            with_model,
-            in_space,
-            device,
-            it,
-            bias_step=bias_step,
-            last_iteration=last_iteration,
-            say=say,
-        )
-
-    error: UnreachableTuningError | None = None
-    step: Answer | None = None
-    try:
-        step = solve(model, space)
-    except UnreachableTuningError as exc:
-        error = exc
-    if step is not None and not step.moved:
-        return step
-    other = every_sweep()
-    # its law is solved from the current bias and from the middle of the limits: from a bias
-    # at a limit, the repeated linearization of a quadratic law may stay at that limit
-    middle = np.array(space.start_bias, dtype=float)
-    middle[space.index] = 0.5 * (space.limits[0] + space.limits[1])
-    starts = [] if other is None else [space, dataclasses.replace(space, start_bias=middle)]
-    for start in starts:
-        assert other is not None
-        try:
-            solve_criterion(criterion, other, start)
-        except UnreachableTuningError:
-            continue
-        say(
-            f"iteration {it}: the fit of every sweep so far reaches the goal inside the "
-            "limits; answering from it"
-        )
-        return solve(other, start)
-    if step is None:
-        assert error is not None
-        raise error
-    return step
 
 
 def best_effort(

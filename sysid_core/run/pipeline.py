@@ -42,7 +42,7 @@ from sysid_core.errors import ConfigError
 from sysid_core.identification.objective import Progress
 from sysid_core.model.fitted import FittedModel
 from sysid_core.plugin.registry import Registry, get_registry
-from sysid_core.run.answer import Answer, answer_or_every_sweep
+from sysid_core.run.answer import Answer, answer
 from sysid_core.run.bench import Bench
 from sysid_core.run.benchtime import dwell, settle, tones
 from sysid_core.run.components import build_components
@@ -329,7 +329,7 @@ class TuningRun:
             ds = self.protocol.every_sweep(it, bias)
             return None if ds is None else self.fitter.fit(ds)[0]
 
-        step = answer_or_every_sweep(
+        step = answer(
             self.criterion,
             model,
             space,

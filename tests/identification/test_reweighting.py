@@ -76,3 +76,17 @@ def test_z_weights_favour_the_points_at_the_modes() -> None:
     assert w.max() > 10 * w.min()  # the far points count much less
     with pytest.raises(ValueError, match="point_weights has shape"):
         FitProblem(ds, structure, point_weights=w[:-1])
+
+
+def test_a_drift_searched_once_is_kept_by_the_refits() -> None:
+    """``drift=True``: the first fit searches the common rate, the refits undo the rate found."""
+    reg = get_registry()
+    device = reg.device(
+        "random-gyro", seed=123, noise=1e-4, bench={"clock": True, "temperature_ramp_k_per_h": 3.0}
+    )
+    _, grid, (structure, objective, solver) = _setup(1e-4)
+    ds = _window(device, grid)
+    first, _ = fit_structure(ds, structure, objective, solver, drift=True)
+    model, _ = refit(ds, structure, objective, solver, drift=True)
+    assert model.meta["z_weighted_refits"] == 2
+    assert model.meta["drift_rate_per_h"] == pytest.approx(first.meta["drift_rate_per_h"])
