@@ -21,7 +21,10 @@ from sysid_core.plugin.registry import Registry
 from sysid_core.run.config import PipelineConfig
 from sysid_core.tuning.criteria import TuningCriterion
 
-__all__ = ["Components", "build_components"]
+__all__ = ["TWINS", "Components", "build_components"]
+
+#: The structure each one is checked against: output dynamics and input dynamics.
+TWINS = {"act": "sen", "sen": "act"}
 
 
 @dataclass(frozen=True)
@@ -33,6 +36,10 @@ class Components:
     objective: Objective
     solver: Solver
     criterion: TuningCriterion
+    #: The structure on the other side (``sen`` for ``act`` and back), built with the same
+    #: options, or None: the run checks with it that a converging window fits the configured
+    #: one (:func:`sysid_core.run.judgement.twin_goal`).
+    twin: ModelStructure | None = None
 
 
 def build_components(
@@ -65,4 +72,8 @@ def build_components(
         device = registry.device(config.device.name, **config.device.options)
     else:
         check_device(device, config.device.name)
-    return Components(device, structure, objective, solver, criterion)
+    twin = None
+    other = TWINS.get(config.model.structure)
+    if other is not None and other in registry.names("model structure"):
+        twin = registry.structure(other, **config.model.structure_options(accepted))
+    return Components(device, structure, objective, solver, criterion, twin)

@@ -112,6 +112,9 @@ class WindowAssessment:
     frequencies_hz: np.ndarray
     bandwidth_hz: np.ndarray
     checks: list[Check] = field(default_factory=list)
+    #: Each mode's own peak is at least :data:`MIN_CONTRIBUTION` of the data's (the first half
+    #: of ``observed``).
+    seen: bool = True
 
     @property
     def ok(self) -> bool:
@@ -132,6 +135,16 @@ class WindowAssessment:
         """The check ``name`` failed and every other one passed."""
         failed = [c.name for c in self.checks if not c.passed]
         return failed == [name]
+
+    def too_coarse(self) -> bool:
+        """The sweep found both modes but its grid is too coarse to resolve them.
+
+        Only ``resolved`` failed, or it and the model's peak (a peak between the sampled points
+        is what a coarse grid leaves unmeasured); both modes are seen. A finer window around
+        them tells a real mode from an invented one.
+        """
+        failed = {c.name for c in self.checks if not c.passed}
+        return "resolved" in failed and failed <= {"resolved", "observed"} and self.seen
 
     def failures(self) -> str:
         """The failed checks as one line."""
@@ -296,4 +309,5 @@ def assess_window(sweep: xr.Dataset, model: FittedModel, band: bool = False) -> 
         frequencies_hz=modes,
         bandwidth_hz=bw,
         checks=checks,
+        seen=bool(np.all(ratio >= MIN_CONTRIBUTION)),
     )

@@ -8,6 +8,7 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.conic.program import Solver
+from sysid_core.data.schema import measured_mask
 from sysid_core.identification.fitting import fit_structure
 from sysid_core.identification.objective import Objective
 from sysid_core.identification.reweighting import refit
@@ -37,6 +38,8 @@ class Fitter:
     trend: bool = False
     #: The mass matrix of the last fit: the shape of the common offsets.
     mass_shape: np.ndarray | None = None
+    #: The structure on the other side, for :meth:`twin`.
+    twin_structure: ModelStructure | None = None
 
     def _epochs(self, ds: xr.Dataset) -> int:
         return len(np.unique(ds["epoch"].values)) if "epoch" in ds.coords else 1
@@ -94,3 +97,24 @@ class Fitter:
                 single, self.structure, self.objective, self.solver, drift=self.rate or False
             )
         return model, assess_window(sweep, model, band=band)
+
+    def twin(self, sweep: xr.Dataset) -> tuple[float, float] | None:
+        """How many times better :attr:`twin_structure` fits a window, and its split (Hz).
+
+        The ratio of the residual sums of squares of the two structures' plain fits; None
+        without a twin.
+        """
+        if self.twin_structure is None:
+            return None
+        single = sweep.isel(electrode=[])
+        mask = measured_mask(single)[0]
+        f = np.asarray(single["frequency"].values, dtype=float)[mask]
+        psi = np.asarray(single["response"].values[0])[mask]
+        found = []
+        for structure in (self.structure, self.twin_structure):
+            model, _ = fit_structure(single, structure, self.objective, self.solver)
+            rss = float(np.sum(np.abs(model.response(f, []) - psi) ** 2))
+            modes = np.asarray(model.modal([]).frequencies_hz, dtype=float)
+            found.append((rss, float(modes[1] - modes[0])))
+        (own, _), (other, twin_split) = found
+        return own / max(other, 1e-300), twin_split

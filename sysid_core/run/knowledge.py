@@ -19,13 +19,19 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
-from sysid_core.data.schema import concat_experiments, requested_bias, squared_potentials
+from sysid_core.data.schema import (
+    concat_experiments,
+    point_times,
+    requested_bias,
+    squared_potentials,
+)
 from sysid_core.data.validation import check_rank_condition
 from sysid_core.errors import SysidError
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.structures import ModelStructure
 from sysid_core.run.evidence import WindowAssessment
-from sysid_core.run.lean import ModeGuess
+from sysid_core.run.lean import ModeGuess, predicted_uncertainty, recentred
+from sysid_core.tuning.criteria import TuningResult
 
 __all__ = ["Knowledge", "Measured"]
 
@@ -125,6 +131,42 @@ class Knowledge:
         except SysidError:
             return False
         return True
+
+    def latest(self) -> Measured | None:
+        """The latest sweep with located modes, or None."""
+        located = [m for m in self.items if m.modes is not None]
+        return located[-1] if located else None
+
+    def centre(
+        self,
+        bias: np.ndarray,
+        index: Sequence[int] | np.ndarray,
+        predicted: TuningResult,
+        model: FittedModel,
+        settle_s: float,
+    ) -> tuple[float, float]:
+        """Where to centre a window around ``predicted``'s modes, and their uncertainty (Hz).
+
+        :func:`~sysid_core.run.lean.recentred` from the :meth:`latest` located modes, moved
+        by ``model`` from that sweep's bias to ``bias`` (``index``: the tuned electrodes'
+        positions); aged from its first time stamp to the latest one of the run plus
+        ``settle_s``. The answer's own without located modes.
+        """
+        ref = self.latest()
+        if ref is None or ref.modes is None:
+            return predicted.frequency_hz, predicted_uncertainty(predicted)
+        try:
+            there = model.modal(ref.bias[index]).frequencies_hz
+            here = model.modal(bias[index]).frequencies_hz
+        except SysidError:  # no modes where the latest sweep was: the answer alone
+            return predicted.frequency_hz, predicted_uncertainty(predicted)
+        ends = [t for m in self.items if (t := point_times(m.data, 0)) is not None and t.size]
+        seen = point_times(ref.data, 0)
+        age = 0.0
+        if ends and seen is not None and seen.size:
+            age = max(float(t.max()) for t in ends) - float(seen.min()) + settle_s
+        moved = float(np.mean(here) - np.mean(there))
+        return recentred(predicted, moved, float(np.mean(ref.modes.frequencies_hz)), age)
 
     def nearest(self, bias: np.ndarray) -> Measured | None:
         """The sweep with located modes whose bias is closest to ``bias`` (largest |Δv|)."""

@@ -37,14 +37,18 @@ __all__ = [
     "CORE_BANDWIDTHS",
     "LOCAL_RADIUS",
     "LOCATE_POINTS",
+    "MAX_FINE_HALF_POINTS",
     "MAX_HALF_POINTS",
+    "MOTION_PPM_PER_H",
     "PREDICTION_ERROR",
     "SCOUT_SPLITS",
     "ModeGuess",
     "explained_gap",
     "locate_plan",
     "mode_grid",
+    "motion_allowance",
     "predicted_uncertainty",
+    "recentred",
     "scout_grid",
     "tone_budget",
 ]
@@ -69,6 +73,12 @@ SCOUT_SPLITS = 0.5
 SCOUT_BANDWIDTHS = 10.0
 #: Most points of a lean run's whole-band sweep (it only locates the modes).
 LOCATE_POINTS = 61
+#: How fast the modes may move on a bench with a clock (ppm of their frequency per hour): an
+#: uncontrolled lab's 1.5 K/h at -30 ppm/K, plus its random walk over a few minutes.
+MOTION_PPM_PER_H = 60.0
+#: A fine grid (:func:`mode_grid` with ``fine``) gives each mode at most this many points on
+#: either side.
+MAX_FINE_HALF_POINTS = 12
 #: A model explains a verification when its modes miss the measured ones by at most this
 #: fraction of the measured split ...
 EXPLAIN_FRACTION = 0.25
@@ -184,7 +194,9 @@ def _mode_points(
     return _merge(points, 1e-3 * float(bw.min()))
 
 
-def mode_grid(guess: ModeGuess, plan: SweepPlan, resolve: bool = False) -> np.ndarray:
+def mode_grid(
+    guess: ModeGuess, plan: SweepPlan, resolve: bool = False, fine: bool = False
+) -> np.ndarray:
     """The points of a sweep around two modes whose frequencies are (roughly) known.
 
     Around each mode ``±h`` with ``h = CORE_BANDWIDTHS·bw + 2σ``, at a step of
@@ -199,6 +211,11 @@ def mode_grid(guess: ModeGuess, plan: SweepPlan, resolve: bool = False) -> np.nd
     (a verification, which must resolve the modes) an uncertain mode's coarse step is refined
     to :data:`RESOLVED_STEP` bandwidths when that costs at most one acquisition more
     (:func:`tone_budget`): one grid then does what a coarse sweep and a fine one would.
+
+    With ``fine`` (the window around modes a sweep has just found, whose uncertainty is their
+    motion since, :func:`motion_allowance`) the step is refined to :data:`RESOLVED_STEP`
+    bandwidths whatever the tones, with at most :data:`MAX_FINE_HALF_POINTS` points on either
+    side of a mode: the window is there to resolve them.
     """
     points_per_bw = POINTS_PER_BANDWIDTH
     points = np.linspace(*plan.band_hz, MIN_POINTS)
@@ -210,10 +227,13 @@ def mode_grid(guess: ModeGuess, plan: SweepPlan, resolve: bool = False) -> np.nd
         points_per_bw *= 2
     else:
         return points
-    if plan.tones <= 1:
-        return points
     bw, half = guess.bandwidth_hz, guess.core_half_widths()
     step = np.maximum(bw / points_per_bw, half / MAX_HALF_POINTS)
+    if fine and np.any(step > RESOLVED_STEP * bw):
+        needed = math.ceil(float(np.max(half / (RESOLVED_STEP * bw))) - 1e-9)
+        return _mode_points(guess, plan, points_per_bw, min(needed, MAX_FINE_HALF_POINTS))
+    if plan.tones <= 1:
+        return points
     if resolve and np.any(step > RESOLVED_STEP * bw):
         # too coarse to resolve the modes: a finer grid if one more acquisition pays for it
         needed = math.ceil(float(np.max(half / (RESOLVED_STEP * bw))) - 1e-9)
@@ -269,6 +289,52 @@ def scout_grid(guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
         lo, hi = windows[0][0], windows[-1][1]
         points = np.linspace(lo, hi, MIN_POINTS)
     return _merge(points, 1e-9 * float(f.max()))
+
+
+def motion_allowance(frequency_hz: float, times_s: np.ndarray | None, settle_s: float) -> float:
+    """How far modes found by a sweep at ``times_s`` may move before a window around them ends.
+
+    ``MOTION_PPM_PER_H`` of ``frequency_hz`` over the sweep's span, the settling and a window
+    as long again (Hz); 0 for a sweep without time stamps (a bench without a clock). A 1.5 kHz
+    gyro of Q 55 000 moves by about a bandwidth in the ten minutes an 18-point window takes in
+    an uncontrolled lab: a window of ``±2`` bandwidths around the modes found just before
+    then misses one of them (random gyro 112).
+    """
+    if times_s is None or np.size(times_s) == 0:
+        return 0.0
+    span_s = 2.0 * float(np.ptp(times_s)) + float(settle_s)
+    return MOTION_PPM_PER_H * 1e-6 * abs(float(frequency_hz)) * span_s / 3600.0
+
+
+def recentred(
+    predicted: TuningResult,
+    moved_hz: float,
+    latest_hz: float,
+    age_s: float,
+) -> tuple[float, float]:
+    """Where to centre the window around a prediction, and its uncertainty (Hz).
+
+    The answer's own mean frequency and :func:`predicted_uncertainty`; or, when it is
+    smaller, the latest located modes' mean ``latest_hz`` moved by the model's predicted move
+    ``moved_hz`` from that sweep's bias to the answer's, uncertain by
+    :data:`PREDICTION_ERROR` of the move, the motion a clock's drift allows over ``age_s``
+    (:data:`MOTION_PPM_PER_H`) and half the largest split of the answer's region. A fit of
+    hours of drifting data knows the modes' mean no better than the drift moved it (random
+    gyro 116, 1.8 kHz: ±2 Hz, against bandwidths of 0.025 Hz), while the design measured just
+    before knows it to a bandwidth.
+    """
+    sigma = predicted_uncertainty(predicted)
+    region = predicted.confidence
+    split = 0.0 if region is None else 0.5 * float(max(region.split_ci_hz))
+    center = latest_hz + moved_hz
+    fresh = (
+        PREDICTION_ERROR * abs(moved_hz)
+        + MOTION_PPM_PER_H * 1e-6 * abs(center) * max(age_s, 0.0) / 3600.0
+        + (split if np.isfinite(split) else 0.0)
+    )
+    if np.isfinite(center) and fresh < sigma:
+        return float(center), float(fresh)
+    return float(predicted.frequency_hz), sigma
 
 
 def predicted_uncertainty(predicted: TuningResult) -> float:

@@ -48,7 +48,7 @@ from sysid_core.run.benchtime import dwell, settle, tones
 from sysid_core.run.components import build_components
 from sysid_core.run.config import PipelineConfig
 from sysid_core.run.fitter import Fitter
-from sysid_core.run.judgement import honest_goals
+from sysid_core.run.judgement import honest_goals, twin_goal
 from sysid_core.run.plots import PLOT_FORMATS, plot_bias_path, plot_iteration
 from sysid_core.run.protocols import RunContext, make_protocol
 from sysid_core.run.summary import IterationRecord, RunSummary, summarize
@@ -151,6 +151,7 @@ class TuningRun:
             drift=config.model.drift == "common",
             offsets="offsets" in config.model.drift,
             trend="trend" in config.model.drift,
+            twin_structure=parts.twin,
         )
         #: With ``[model] drift = "track"``: the verified windows, and the model moved ahead.
         self.tracker = (
@@ -230,6 +231,9 @@ class TuningRun:
                 else []
             )
             converged = ver.verified and all(g.met for g in goals)
+            if converged and (twin := twin_goal(ver, self.fitter, cfg.acceptance_hz)):
+                goals.append(twin)
+                converged = twin.met
             bias = step.bias
             path.append(bias.tolist())
             history.append(IterationRecord.of(it, ds, model, step.result, bias, ver, goals))

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from sysid_core.data.schema import concat_experiments
+from sysid_core.data.schema import concat_experiments, point_times
 from sysid_core.errors import ConfigError
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.context import RunContext
@@ -37,7 +37,7 @@ from sysid_core.run.lean import (
     explained_gap,
     locate_plan,
     mode_grid,
-    predicted_uncertainty,
+    motion_allowance,
     scout_grid,
 )
 from sysid_core.run.passes import repeat_window
@@ -234,15 +234,17 @@ class LeanProtocol(Protocol):
         bw = modes.bandwidth_hz
         if not np.all(np.isfinite(bw) & (bw > 0)):
             bw = np.full(2, self.ctx.plan.verify_resolution_hz)
-        sigma = predicted_uncertainty(predicted)
+        settle = float(getattr(self.ctx.bench.device.device, "settle_s", None) or 0.0)
+        centre, sigma = self.known.centre(bias, self.ctx.space.index, predicted, model, settle)
 
         def window(center: float, split: float, around_prediction: bool) -> np.ndarray:
-            guess = ModeGuess.of(
-                [center - split / 2, center + split / 2],
-                bw,
-                sigma if around_prediction else 0.0,
-            )
-            return mode_grid(guess, self.ctx.plan, resolve=True)
+            if around_prediction:
+                center, uncertainty = centre, sigma
+            else:  # modes the last sweep found: they may have moved since (a clock's drift)
+                last = self.known.items[-1].data
+                uncertainty = motion_allowance(center, point_times(last, 0), settle)
+            guess = ModeGuess.of([center - split / 2, center + split / 2], bw, uncertainty)
+            return mode_grid(guess, self.ctx.plan, resolve=True, fine=not around_prediction)
 
         return self._verify_with(bias, predicted, model, folder, self.locate_plan, window)
 

@@ -14,6 +14,7 @@ on a window seconds old, and the two measurements of one bias give the drift's r
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,7 +23,7 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.data.schema import requested_bias
-from sysid_core.identification.anchor import anchor
+from sysid_core.identification.anchor import anchor, split_offset
 from sysid_core.identification.drift import OffsetDrift, offset_drift
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.evidence import WindowAssessment
@@ -66,6 +67,8 @@ class Tracker:
     keep: int = 4
     windows: list[xr.Dataset] = field(default_factory=list)
     splits: list[float] = field(default_factory=list)
+    #: Each window's own single-bias model.
+    models: list[FittedModel] = field(default_factory=list)
     #: The rates the last :meth:`now` found (common and split), or None.
     rates: OffsetDrift | None = None
 
@@ -75,6 +78,7 @@ class Tracker:
         if ver.verified and ver.split_hz is not None and t.size == ver.sweep["frequency"].size:
             self.windows.append(ver.sweep)
             self.splits.append(float(ver.split_hz))
+            self.models.append(ver.model)
 
     def stale(self, ds: xr.Dataset) -> xr.Dataset | None:
         """The latest window, to be measured again, or None.
@@ -110,16 +114,21 @@ class Tracker:
             "since; measuring it again"
         )
         freqs = np.asarray(stale["frequency"].values, dtype=float)
-        again, _, evidence = sweep(requested_bias(stale), freqs, folder / "window-again.nc", False)
+        path = folder / "window-again.nc"
+        again, own, evidence = sweep(requested_bias(stale), freqs, path, False)
         if evidence.ok:
-            self.refreshed(again, evidence.split_hz)
+            self.refreshed(again, evidence.split_hz, own)
 
-    def refreshed(self, sweep: xr.Dataset, split_hz: float | None) -> None:
-        """Keep ``sweep``, the latest window measured again, if it verified ``split_hz``."""
+    def refreshed(self, sweep: xr.Dataset, split_hz: float | None, model: FittedModel) -> None:
+        """Keep ``sweep``, the latest window measured again, if it verified ``split_hz``.
+
+        ``model``: its own single-bias model.
+        """
         t = _times(sweep)
         if split_hz is not None and t.size == sweep["frequency"].size:
             self.windows.append(sweep)
             self.splits.append(float(split_hz))
+            self.models.append(model)
 
     def anchoring(self) -> list[xr.Dataset]:
         """The latest window, and up to ``keep - 1`` earlier ones with a split under ``near_hz``.
@@ -153,6 +162,11 @@ class Tracker:
         stamps = _times(ds)
         at = max(found.t_ref, float(stamps.max()) if stamps.size else found.t_ref) + self.ahead_s()
         moved = found.model_at(model, at)
+        # the split the latest window's own fit measured, which the anchor can miss
+        last = self.windows[-1]
+        then = found.model_at(model, float(_times(last).mean()))
+        offset = split_offset(then, last, self.models[-1])
+        moved = dataclasses.replace(moved, K0=np.asarray(moved.K0) + offset)
         self.rates = seen = offset_drift(moved)
         split = (
             "split's rate not told from the noise"

@@ -136,7 +136,7 @@ def verify(
         windows.append(ev)
         if ev.ok:
             return Verification("verified", ev.frequencies_hz, windows, swept, vmodel)
-        if ev.failed_only("resolved"):
+        if ev.too_coarse():
             # a coarse window (an uncertain prediction) found both modes: a fine one around them
             say(
                 f"verification: modes found near {ev.frequencies_hz[0]:.3f} / "

@@ -8,6 +8,8 @@ gyro now, and its rate must carry it ahead to a time not yet measured.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from sysid_cloverleaf import CloverleafGyro
@@ -15,7 +17,7 @@ from sysid_cloverleaf import CloverleafGyro
 from sysid_core import fit
 from sysid_core.data import concat_experiments, experiment_from_measurement
 from sysid_core.errors import DataError
-from sysid_core.identification.anchor import anchor
+from sysid_core.identification.anchor import anchor, split_offset
 from sysid_core.identification.drift import offset_drift
 from sysid_core.run.sweeps import design_experiments
 
@@ -129,3 +131,17 @@ def test_windows_seconds_apart_on_a_still_gyro_give_no_split_rate() -> None:
         apart.append(measured(charging, BIAS, window(charging)))
         charging.bench.now_s += 1200.0
     assert _split_rate(model, anchor(model, apart)) > 0.01  # Hz/h; charging: about 0.04
+
+
+def test_a_windows_own_split_moves_the_model_to_it(charged) -> None:
+    """The design's model misses the split at BIAS by 0.7 Hz; offset by what the latest
+    window's own fit measured there, it has the window's split, and its mean frequency."""
+    _, model, windows = charged
+    last = windows[-1]
+    own = fit(last.sel(electrode=[]))
+    moved = dataclasses.replace(model, K0=np.asarray(model.K0) + split_offset(model, last, own))
+    bias = np.asarray(last.sel(electrode=["B1", "B2"])["bias"].values[0])  # as the DAC applied it
+    assert abs(model.split_hz(bias) - own.split_hz([])) > 0.1
+    assert moved.split_hz(bias) == pytest.approx(own.split_hz([]), abs=1e-6)
+    before, after = model.modal_frequencies_hz(bias), moved.modal_frequencies_hz(bias)
+    assert after.mean() == pytest.approx(before.mean(), abs=1e-3 * abs(np.ptp(before)))
