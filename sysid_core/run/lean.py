@@ -18,6 +18,13 @@ frequency (the feedthrough polynomial). So a sweep of a lean run is:
 
 A sweep whose evidence (:func:`sysid_core.run.evidence.assess_window`) does not show both modes is
 followed by the whole band at the same bias, so a wrong guess costs points, never a result.
+
+On a bench with a clock the modes move while the run measures them. A verification window
+around the predicted modes is centred by the latest located modes moved by the model
+(:func:`recentred`) when the answer's own region knows their mean less well (a fit of hours of
+drifting data); a window around modes the sweep before it has just found is a **fine** grid
+(``mode_grid(..., fine=True)``: every mode resolved, whatever the tones) whose uncertainty is
+their motion since (:func:`motion_allowance`).
 """
 
 from __future__ import annotations

@@ -3,7 +3,11 @@
 The run's fit keeps its bias law; :class:`Tracker` anchors that model on the run's latest verified
 windows (:func:`sysid_core.identification.anchor.anchor`: a stiffness offset, and its rate once
 two verifications are at hand) and moves it ahead to the middle of the next verification window:
-the latest time stamp, plus the settling after the bias change, plus half a window.
+the latest time stamp, plus the settling after the bias change, plus half a window. The split
+(and its orientation) of the moved model at the latest window's bias is then the one that
+window's own fit measured (:func:`sysid_core.identification.anchor.split_offset`): the anchor
+holds the model's mass and polynomial, and near degenerate modes what those miss it can take
+for a split.
 
 A window measured before a local design is stale by the design's duration (four sweeps: 90-110 s
 on a 25 kHz gyro, in which charging moves the split by 2-4 mHz); when the latest window verified a

@@ -2,12 +2,12 @@
 
 :func:`verify` runs the sweeps in order: the window around the predicted modes (skipped when
 the predicted split is wider than it); if it shows both modes but too coarsely (a lean run's
-window around an uncertain prediction), a fine window around them; if it fails, the whole
-band, whose fit locates the modes; then, if they are close, a narrow window around the located
-modes. Each sweep is judged by
-:func:`sysid_core.run.evidence.assess_window`. A split from a whole-band sweep is reported as
-*located* (coarse); only a narrow window that passes every check *verifies* a split, and only a
-verified split can make a run converge.
+window around an uncertain prediction: only the resolution and the model's unsampled peak fail,
+:meth:`~sysid_core.run.evidence.WindowAssessment.too_coarse`), a fine window around them; if it
+fails, the whole band, whose fit locates the modes; then, if they are close, a narrow window
+around the located modes. Each sweep is judged by :func:`sysid_core.run.evidence.assess_window`.
+A split from a whole-band sweep is reported as *located* (coarse); only a narrow window that
+passes every check *verifies* a split, and only a verified split can make a run converge.
 """
 
 from __future__ import annotations
