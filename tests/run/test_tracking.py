@@ -8,6 +8,7 @@ the tuned bias, so a model of all the run's sweeps keeps missing by the lag.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -125,3 +126,53 @@ def test_a_window_older_than_the_sweeps_after_it_is_stale() -> None:
     tracker.refreshed(_verification(0.004, 200.0).sweep, 0.004, None)  # type: ignore[arg-type]
     tracker.refreshed(_verification(0.004, 300.0).sweep, None, None)  # type: ignore[arg-type]
     assert [float(w["time_s"].values.min()) for w in tracker.anchoring()] == [100.0, 200.0]
+
+
+def test_the_windows_own_split_moves_the_model_only_beyond_their_noise(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Cloverleaf seed 1 (80 dB), B1 charging at 50 mV/h: a model of design sweeps around 0 V
+    misses the split at (2.0, 4.4) V by 0.7 Hz an hour later. With no anchor offset the
+    windows' own splits move it by that miss; anchored on the windows it misses the true split
+    by 3.2 mHz, and their own splits, beyond their noise at 80 dB, bring it closer."""
+    from sysid_cloverleaf import CloverleafGyro
+
+    import sysid_core.run.tracking as tracking
+    from sysid_core import fit
+    from sysid_core.data import concat_experiments, experiment_from_measurement
+    from sysid_core.identification.anchor import Anchor, anchor
+    from sysid_core.run.sweeps import design_experiments
+
+    gyro = CloverleafGyro(seed=1, bench={"clock": True, "charging_v_per_h": [0.05, 0.0, 0.0]})
+    bias = np.array([2.0, 4.4, 0.0])
+
+    def measured(b: np.ndarray, f: np.ndarray) -> xr.Dataset:
+        return experiment_from_measurement(gyro.measure(b, f), b, gyro.electrodes, 15.58, "c")
+
+    design = design_experiments(np.zeros(3), [0, 1], 1.0, (-10.0, 10.0), two_sided=True)
+    band = np.linspace(4385.0, 4445.0, 121)
+    model = fit(concat_experiments([measured(b, band) for b in design]).sel(electrode=["B1", "B2"]))
+    gyro.bench.now_s += 3600.0  # an hour later: B1 has charged by 50 mV
+    centre = gyro.true_modal_frequencies_hz(bias).mean()
+    windows = [measured(bias, np.linspace(centre - 1.0, centre + 1.0, 41)) for _ in range(2)]
+    pairs = [(w, fit(w.sel(electrode=[]))) for w in windows]
+    applied = np.asarray(windows[-1].sel(electrode=["B1", "B2"])["bias"].values[0])
+    none = Anchor(np.zeros((2, 2)), None, float(gyro.time_s), 2, 0.0)
+    offset, shift = tracking.windows_split(model, none, pairs)
+    miss = abs(model.split_hz(applied) - pairs[-1][1].split_hz([]))
+    assert miss > 0.5
+    assert shift == pytest.approx(miss, rel=0.05)
+    # anchored on the windows: their own splits still bring the model nearer the truth
+    found = anchor(model, windows)
+    anchored = found.model_at(model, found.t_ref)
+    offset, shift = tracking.windows_split(model, found, pairs)
+    assert shift > 0.0
+    moved = dataclasses.replace(anchored, K0=np.asarray(anchored.K0) + offset)
+    f = gyro.true_modal_frequencies_hz(bias)
+    truth = float(f[1] - f[0])
+    # measured: 3.2 mHz from the truth anchored, 1.7 mHz moved
+    assert abs(moved.split_hz(applied) - truth) < 0.7 * abs(anchored.split_hz(applied) - truth)
+    # a move within the windows' noise is no move
+    monkeypatch.setattr(tracking, "SPLIT_SIGNIFICANCE", 1e9)
+    offset, shift = tracking.windows_split(model, found, pairs)
+    assert shift == 0.0 and not np.any(offset)
