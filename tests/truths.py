@@ -26,6 +26,7 @@ __all__ = [
     "TWO_PI",
     "V_GYRO",
     "cloverleaf_truth",
+    "degenerate_config",
     "simulate",
 ]
 
@@ -108,3 +109,27 @@ def write_toml(path: Path, tables: dict[str, dict[str, Any]]) -> Path:
         lines += [f"{k} = {value(v)}" for k, v in values.items()]
     path.write_text("\n".join(lines) + "\n")
     return path
+
+
+def degenerate_config(
+    device: Any,
+    options: dict[str, Any],
+    iterations: int,
+    acceptance_hz: float = 0.002,
+    **sections: dict[str, Any],
+) -> dict[str, Any]:
+    """A run of ``random-gyro`` ``device`` (built with ``options``) to degenerate modes with B1
+    and B2 from 0 V; the model structure that matches its dynamics, unless ``sections`` give a
+    ``model`` table; more tables (``experiment``...) from ``sections``."""
+    return {
+        "device": {"name": "random-gyro", **options},
+        "model": {"structure": device.structure},
+        "tuning": {
+            "criterion": "degenerate",
+            "electrodes": ["B1", "B2"],
+            "start_bias": [0.0] * len(device.electrodes),
+            "acceptance_hz": acceptance_hz,
+            "max_iterations": iterations,
+        },
+        **sections,
+    }

@@ -131,11 +131,6 @@ class WindowAssessment:
         """Mean of the fitted modal frequencies (Hz)."""
         return float(np.mean(self.frequencies_hz))
 
-    def failed_only(self, name: str) -> bool:
-        """The check ``name`` failed and every other one passed."""
-        failed = [c.name for c in self.checks if not c.passed]
-        return failed == [name]
-
     def too_coarse(self) -> bool:
         """The sweep found both modes but its grid is too coarse to resolve them.
 

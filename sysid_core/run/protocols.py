@@ -26,6 +26,7 @@ import xarray as xr
 from sysid_core.data.schema import concat_experiments, point_times
 from sysid_core.errors import ConfigError
 from sysid_core.model.fitted import FittedModel
+from sysid_core.run.benchtime import settle as settle_s
 from sysid_core.run.context import RunContext
 from sysid_core.run.evidence import WindowAssessment
 from sysid_core.run.knowledge import Knowledge
@@ -234,7 +235,8 @@ class LeanProtocol(Protocol):
         bw = modes.bandwidth_hz
         if not np.all(np.isfinite(bw) & (bw > 0)):
             bw = np.full(2, self.ctx.plan.verify_resolution_hz)
-        settle = float(getattr(self.ctx.bench.device.device, "settle_s", None) or 0.0)
+        exp = self.ctx.config.experiment
+        settle = settle_s(self.ctx.bench.device.device, exp.settle_s, model)[0] or 0.0
         centre, sigma = self.known.centre(bias, self.ctx.space.index, predicted, model, settle)
 
         def window(center: float, split: float, around_prediction: bool) -> np.ndarray:

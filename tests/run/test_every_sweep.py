@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from truths import degenerate_config
+
 from sysid_core import tune
 from sysid_core.plugin.registry import get_registry
 
@@ -21,17 +23,7 @@ def test_a_run_stuck_at_a_limit_answers_from_every_sweep(tmp_path: Path) -> None
     device = get_registry().device(
         "random-gyro", seed=119, noise=1e-3, bench={"clock": True, "seed": 119}
     )
-    config = {
-        "device": {"name": "random-gyro", "seed": 119, "noise": 1e-3},
-        "model": {"structure": device.structure},
-        "tuning": {
-            "criterion": "degenerate",
-            "electrodes": ["B1", "B2"],
-            "start_bias": [0.0] * len(device.electrodes),
-            "acceptance_hz": 0.002,
-            "max_iterations": 4,
-        },
-    }
+    config = degenerate_config(device, {"seed": 119, "noise": 1e-3}, iterations=4)
     lines: list[str] = []
     result = tune(config, tmp_path, device=device, plots=False, progress=lines.append)
     assert any("the fit of every sweep so far reaches the goal" in line for line in lines)

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from truths import degenerate_config
 
 from sysid_core import tune
 from sysid_core.plugin.registry import get_registry
@@ -25,16 +26,7 @@ def test_a_split_biased_by_the_wrong_structure_is_not_converged(tmp_path: Path) 
     beyond it. The twin structure ``sen`` fits that window many times better (16 measured,
     limit 4) and measures the split near the truth, so the run does not claim convergence."""
     device = get_registry().device("random-gyro", seed=108)
-    config = {
-        "device": {"name": "random-gyro", "seed": 108},
-        "tuning": {
-            "criterion": "degenerate",
-            "electrodes": ["B1", "B2"],
-            "start_bias": [0.0] * len(device.electrodes),
-            "acceptance_hz": ACCEPTANCE,
-            "max_iterations": 3,
-        },
-    }
+    config = degenerate_config(device, {"seed": 108}, iterations=3, model={"structure": "act"})
     result = tune(config, tmp_path / "run", device=device, plots=False)
     f = device.true_modal_frequencies_hz(result.bias)
     true_split = float(f[1] - f[0])

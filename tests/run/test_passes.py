@@ -14,6 +14,7 @@ import pytest
 import xarray as xr
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from truths import degenerate_config
 
 from sysid_core import fit, tune
 from sysid_core.data.schema import experiment_from_measurement
@@ -113,18 +114,9 @@ def test_how_many_passes() -> None:
 
 def _run(tmp_path: Path, max_passes: int, resume: bool = False) -> tuple[Path, dict]:
     device = get_registry().device("random-gyro", seed=SEED, noise=1e-3)
-    config = {
-        "device": {"name": "random-gyro", "seed": SEED, "noise": 1e-3},
-        "model": {"structure": device.structure},
-        "tuning": {
-            "criterion": "degenerate",
-            "electrodes": ["B1", "B2"],
-            "start_bias": [0.0] * len(device.electrodes),
-            "acceptance_hz": 0.002,
-            "max_iterations": 3,
-        },
-        "experiment": {"max_passes": max_passes},
-    }
+    config = degenerate_config(
+        device, {"seed": SEED, "noise": 1e-3}, iterations=3, experiment={"max_passes": max_passes}
+    )
     out = tmp_path / f"run{max_passes}"
     tune(config, out, device=device, plots=False, resume=resume)
     return out, json.loads((out / "summary.json").read_text())

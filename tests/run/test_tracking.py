@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
+from truths import degenerate_config
 
 from sysid_core import tune
 from sysid_core.plugin.registry import get_registry
@@ -38,17 +39,8 @@ def run(
 ) -> tuple[float, dict, list[str]]:
     bench = {**LAB, "seed": seed, "temperature_ramp_k_per_h": 1.5 if seed % 2 else -1.5}
     device = get_registry().device("random-gyro", seed=seed, noise=1e-3, bench=bench)
-    config = {
-        "device": {"name": "random-gyro", "seed": seed, "noise": 1e-3},
-        "model": {"drift": drift, "structure": structure},
-        "tuning": {
-            "criterion": "degenerate",
-            "electrodes": ["B1", "B2"],
-            "start_bias": [0.0] * len(device.electrodes),
-            "acceptance_hz": ACCEPTANCE,
-            "max_iterations": 8,
-        },
-    }
+    model = {"drift": drift, "structure": structure}
+    config = degenerate_config(device, {"seed": seed, "noise": 1e-3}, iterations=8, model=model)
     lines: list[str] = []
     out = tmp_path / f"{drift}{seed}"
     result = tune(config, out, device=device, plots=False, progress=lines.append)
