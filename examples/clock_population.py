@@ -67,7 +67,9 @@ def seeds(text: str) -> list[int]:
     return [int(s) for s in text.split(",")]
 
 
-def _config(gyro: str, device: Any, options: dict, experiment: dict, start: list[float]) -> dict:
+def _config(
+    gyro: str, device: Any, options: dict, experiment: dict, start: list[float], model: dict
+) -> dict:
     tuning = {
         "criterion": "degenerate",
         "electrodes": ["B1", "B2"],
@@ -75,10 +77,9 @@ def _config(gyro: str, device: Any, options: dict, experiment: dict, start: list
         "acceptance_hz": ACCEPTANCE,
         "max_iterations": 4,
     }
-    model = {}
     if gyro == "random":
         experiment = {"bias_step": 3.0, **experiment}
-        model = {"structure": device.structure}  # each gyro's own, as in docs/random-gyro.md
+        model = {"structure": device.structure, **model}  # its own, as in docs/random-gyro.md
     return {
         "device": {"name": device.name, **{k: v for k, v in options.items() if k != "bench"}},
         "tuning": tuning,
@@ -94,10 +95,10 @@ def _device(gyro: str, seed: int, tones: int, bench_seed: int) -> tuple[Any, dic
     return get_registry().device(name, **options), options
 
 
-def prior_model(gyro: str, seed: int, tones: int, out: Path, experiment: dict) -> Path:
+def prior_model(gyro: str, seed: int, tones: int, out: Path, experiment: dict, model: dict) -> Path:
     """A previous run on the same gyro (other noise, other drift, from 0 V): its last model."""
     device, options = _device(gyro, seed, tones, seed + 1000)
-    config = _config(gyro, device, options, experiment, [0.0] * len(device.electrodes))
+    config = _config(gyro, device, options, experiment, [0.0] * len(device.electrodes), model)
     folder = out / f"prior{seed}"
     shutil.rmtree(folder, ignore_errors=True)
     result = tune(config, folder, plots=False, device=device)
@@ -105,10 +106,16 @@ def prior_model(gyro: str, seed: int, tones: int, out: Path, experiment: dict) -
 
 
 def one(
-    gyro: str, seed: int, tones: int, out: Path, experiment: dict, from_model: bool = False
+    gyro: str,
+    seed: int,
+    tones: int,
+    out: Path,
+    experiment: dict,
+    model: dict,
+    from_model: bool = False,
 ) -> dict:
     """Tune one gyro; its record."""
-    prior = prior_model(gyro, seed, tones, out, experiment) if from_model else None
+    prior = prior_model(gyro, seed, tones, out, experiment, model) if from_model else None
     device, options = _device(gyro, seed, tones, seed)
     if gyro == "cloverleaf":
         rng = np.random.default_rng(seed)
@@ -116,7 +123,7 @@ def one(
     else:
         start = [0.0] * len(device.electrodes)
     recorder = Recorder(device)
-    config = _config(gyro, device, options, experiment, start)
+    config = _config(gyro, device, options, experiment, start, model)
     folder = out / f"run{seed}"
     shutil.rmtree(folder, ignore_errors=True)
     try:
@@ -179,6 +186,7 @@ def main() -> None:
     parser.add_argument("--starts", type=int, default=12, help="cloverleaf: starts 1..N")
     parser.add_argument("--seeds", default="201-224", help="random: gyro seeds")
     parser.add_argument("--experiment", default="{}", help="an [experiment] table as JSON")
+    parser.add_argument("--model", default="{}", help="a [model] table as JSON")
     parser.add_argument(
         "--from-model", action="store_true", help="start from a previous run's model of the gyro"
     )
@@ -192,12 +200,14 @@ def main() -> None:
             print(row(folder.name, [json.loads(line) for line in lines]))
         return
     args.out.mkdir(parents=True, exist_ok=True)
-    experiment = json.loads(args.experiment)
+    experiment, model = json.loads(args.experiment), json.loads(args.model)
     which = list(range(1, args.starts + 1)) if args.gyro == "cloverleaf" else seeds(args.seeds)
     records = []
     with (args.out / "runs.jsonl").open("w") as log:
         for seed in which:
-            records.append(one(args.gyro, seed, args.tones, args.out, experiment, args.from_model))
+            records.append(
+                one(args.gyro, seed, args.tones, args.out, experiment, model, args.from_model)
+            )
             log.write(json.dumps(records[-1]) + "\n")
             log.flush()
     label = args.label or (

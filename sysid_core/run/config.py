@@ -179,6 +179,12 @@ class ExperimentConfig(_Strict):
     Measured on the cloverleaf (49 starts, ``docs/bench-time.md``): to a true split of 1 mHz,
     lean needs a median of under 200 points against about 1400.
 
+    ``locate_points`` (default 61) is the most points of a lean run's whole-band sweep, which
+    only locates the modes (the band at ``resolution_hz`` when that has fewer). With a
+    stepped-sine device every point costs a dwell: on the cloverleaf (a 60 Hz band, modes
+    0.1 Hz wide) 31 points took 5 minutes less to 1 mHz, but on random gyros at 1-30 kHz 3 of
+    48 more ended over 1 mHz (docs/bench-time.md).
+
     ``max_passes`` (default 1: never repeat) bounds how many passes of a verification window
     are averaged when its noise hides the split (:mod:`sysid_core.run.passes`): for a bench of
     low SNR whose drift is slow (docs/drift.md, "Averaging a window").
@@ -202,6 +208,7 @@ class ExperimentConfig(_Strict):
     verify_resolution_hz: float = Field(0.01, gt=0)
     max_points: int = Field(20_000, ge=11)
     max_passes: int = Field(1, ge=1, le=64)
+    locate_points: int = Field(61, ge=11, le=4001)
     timeout_s: float | None = Field(None, gt=0)
 
     @field_validator("band_hz")

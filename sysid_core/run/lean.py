@@ -192,11 +192,11 @@ def _mode_points(
     Then the anchors; everything inside the band, near-duplicates merged.
     """
     f, bw, half = guess.frequencies_hz, guess.bandwidth_hz, guess.core_half_widths()
+    steps = np.maximum(bw / points_per_bw, half / max_half)
     parts = []
-    for fi, bi, hi in zip(f, bw, half, strict=True):
-        step = max(bi / points_per_bw, hi / max_half)
-        k = math.ceil(hi / step - 1e-9)
-        parts.append(fi + step * np.arange(-k, k + 1))
+    for fi, si, hi in zip(f, steps, half, strict=True):
+        k = math.ceil(hi / si - 1e-9)
+        parts.append(fi + si * np.arange(-k, k + 1))
     points = _clip(np.concatenate([*parts, anchors(f, bw, plan)]), plan.band_hz)
     return _merge(points, 1e-3 * float(bw.min()))
 
@@ -224,29 +224,30 @@ def mode_grid(
     bandwidths whatever the tones, with at most :data:`MAX_FINE_HALF_POINTS` points on either
     side of a mode: the window is there to resolve them.
     """
-    points_per_bw = POINTS_PER_BANDWIDTH
+    points_per_bw, max_half = POINTS_PER_BANDWIDTH, MAX_HALF_POINTS
     points = np.linspace(*plan.band_hz, MIN_POINTS)
     for _ in range(6):
-        candidate = _mode_points(guess, plan, points_per_bw, MAX_HALF_POINTS)
+        candidate = _mode_points(guess, plan, points_per_bw, max_half)
         if candidate.size >= MIN_POINTS:
             points = candidate
             break
-        points_per_bw *= 2
+        points_per_bw, max_half = 2 * points_per_bw, 2 * max_half
     else:
         return points
     bw, half = guess.bandwidth_hz, guess.core_half_widths()
-    step = np.maximum(bw / points_per_bw, half / MAX_HALF_POINTS)
+    step = np.maximum(bw / points_per_bw, half / max_half)
     if fine and np.any(step > RESOLVED_STEP * bw):
         needed = math.ceil(float(np.max(half / (RESOLVED_STEP * bw))) - 1e-9)
         return _mode_points(guess, plan, points_per_bw, min(needed, MAX_FINE_HALF_POINTS))
-    if plan.tones <= 1:
-        return points
     if resolve and np.any(step > RESOLVED_STEP * bw):
-        # too coarse to resolve the modes: a finer grid if one more acquisition pays for it
+        # too coarse to resolve the modes: a finer grid if it costs less than the fine sweep
+        # that would follow the coarse one (one acquisition more with tones; with one tone,
+        # at most the coarse grid's points again)
         needed = math.ceil(float(np.max(half / (RESOLVED_STEP * bw))) - 1e-9)
         finer = _mode_points(guess, plan, points_per_bw, needed)
-        if finer.size <= tone_budget(points.size, plan.tones, extra=1):
-            return finer
+        budget = 2 * points.size if plan.tones <= 1 else tone_budget(points.size, plan.tones, 1)
+        return finer if finer.size <= budget else points
+    if plan.tones <= 1:
         return points
     spill = points.size % plan.tones
     if points.size - spill >= MIN_POINTS and 0 < spill <= ANCHORS // 2:

@@ -33,7 +33,6 @@ from sysid_core.run.knowledge import Knowledge
 from sysid_core.run.lean import (
     EXPLAIN_FLOOR_HZ,
     LOCAL_RADIUS,
-    LOCATE_POINTS,
     ModeGuess,
     explained_gap,
     locate_plan,
@@ -169,7 +168,7 @@ class LeanProtocol(Protocol):
         #: split, it is anchored on the latest sweeps instead of measuring designs.
         self.previous = None if prior is None else PreviousModel(prior)
         self.known = Knowledge(ctx.space.tuned, ctx.space.structure_potential)
-        self.locate_plan = locate_plan(ctx.plan)
+        self.locate_plan = locate_plan(ctx.plan, ctx.config.experiment.locate_points)
         self.local = False
         self.moved = False
         self.last_verified: tuple[np.ndarray, np.ndarray] | None = None
@@ -342,7 +341,7 @@ class LeanProtocol(Protocol):
         elif first is None:
             assert guess is not None
             first = mode_grid(guess, ctx.plan)
-        denser = locate_plan(ctx.plan, 4 * (LOCATE_POINTS - 1) + 1).band()
+        denser = locate_plan(ctx.plan, 4 * (ctx.config.experiment.locate_points - 1) + 1).band()
         tries = [
             ("", first),
             ("-locate", locate),

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from sysid_cloverleaf import CloverleafGyro
 from sysid_random_gyro import RandomGyro
 
-from sysid_core.errors import DeviceError, UnreachableTuningError
+from sysid_core.errors import ConfigError, DeviceError, UnreachableTuningError
 from sysid_core.run import lean
 from sysid_core.run.config import parse_config
 from sysid_core.run.evidence import local_steps
@@ -91,6 +91,11 @@ def test_scout_and_band_edges() -> None:
     # modes at the band's edge: every point stays inside
     edge = mode_grid(ModeGuess.of([4385.5, 4390.0], [0.1, 0.1]), PLAN)
     assert edge[0] >= 4385.0
+    # a degenerate pair at the edge, whose far points merge there: still a grid at the modes
+    # (finer, to keep MIN_POINTS), not the whole band in MIN_POINTS points
+    corner = mode_grid(ModeGuess.of([4444.8, 4444.8], [0.1, 0.1]), PLAN)
+    assert corner.size >= MIN_POINTS and corner[-1] <= 4445.0
+    assert np.sum(np.abs(corner - 4444.8) <= 0.2) >= 2 * lean.MAX_HALF_POINTS + 1
 
 
 @settings(max_examples=50, deadline=None)
@@ -131,6 +136,31 @@ def test_lean_run_tunes_on_few_points(lean_run: tuple[Path, Any, Recording]) -> 
     # later iterations reuse every sweep: they measure only their verification
     for rec in summary.history[1:]:
         assert files(out, f"iter{rec.iteration:02d}") == ["verify.nc"]
+
+
+def test_a_v2_gyro_tunes_on_fewer_points_with_the_linear_law_and_a_short_locate(
+    lean_run: tuple[Path, Any, Recording], tmp_path: Path
+) -> None:
+    # the cloverleaf's electrodes follow v²: the linear law needs a one-sided design (3 biases,
+    # not 5), and its narrow band is located by 31 points
+    config = {
+        **MAIN_JOB,
+        "model": {"stiffness": "linear"},
+        "experiment": {**MAIN_JOB["experiment"], "locate_points": 31},
+    }
+    dev = Recording(seed=1)
+    summary = TuningRun(parse_config(config), tmp_path, device=dev, plots=False).run()
+    assert summary.converged and dev.true_split_hz(summary.bias) <= 0.001
+    assert dev.calls[0][1] == 31
+    assert files(tmp_path, "iter01")[:3] == ["exp0.nc", "exp1.nc", "exp2.nc"]
+    assert "exp3.nc" not in files(tmp_path, "iter01")
+    assert summary.points < lean_run[1].points
+
+
+def test_the_locate_points_are_checked() -> None:
+    bad = {**MAIN_JOB, "experiment": {**MAIN_JOB["experiment"], "locate_points": 5}}
+    with pytest.raises(ConfigError, match="locate_points"):
+        parse_config(bad)
 
 
 def test_lean_resume_replays_the_same_choices(
