@@ -180,10 +180,10 @@ class ExperimentConfig(_Strict):
     lean needs a median of under 200 points against about 1400.
 
     ``locate_points`` (default 61) is the most points of a lean run's whole-band sweep, which
-    only locates the modes (the band at ``resolution_hz`` when that has fewer). With a
-    stepped-sine device every point costs a dwell: on the cloverleaf (a 60 Hz band, modes
-    0.1 Hz wide) 31 points took 5 minutes less to 1 mHz, but on random gyros at 1-30 kHz 3 of
-    48 more ended over 1 mHz (docs/bench-time.md).
+    only locates the modes (the band at ``resolution_hz`` when that has fewer). Measured with 31
+    (docs/bench-time.md): with a good lab's drift, 10-30 % less time to a split of 1 mHz on the
+    cloverleaf and on 72 random gyros, as many ending within it; on the uncontrolled lab's
+    bench (60 dB SNR) 15 of 24 random gyros ended within 2 mHz against 19.
 
     ``max_passes`` (default 1: never repeat) bounds how many passes of a verification window
     are averaged when its noise hides the split (:mod:`sysid_core.run.passes`): for a bench of

@@ -78,7 +78,9 @@ PREDICTION_ERROR = 0.1
 SCOUT_SPLITS = 0.5
 #: ... and by at least this many bandwidths.
 SCOUT_BANDWIDTHS = 10.0
-#: Most points of a lean run's whole-band sweep (it only locates the modes).
+#: Most points of a lean run's whole-band sweep (it only locates the modes); ``[experiment]
+#: locate_points`` sets it (31 saves time on a quiet bench, costs accuracy at 60 dB SNR:
+#: docs/bench-time.md).
 LOCATE_POINTS = 61
 #: How fast the modes may move on a bench with a clock (ppm of their frequency per hour): an
 #: uncontrolled lab's 1.5 K/h at -30 ppm/K, plus its random walk over a few minutes.
@@ -239,15 +241,14 @@ def mode_grid(
     if fine and np.any(step > RESOLVED_STEP * bw):
         needed = math.ceil(float(np.max(half / (RESOLVED_STEP * bw))) - 1e-9)
         return _mode_points(guess, plan, points_per_bw, min(needed, MAX_FINE_HALF_POINTS))
+    if plan.tones <= 1:
+        return points
     if resolve and np.any(step > RESOLVED_STEP * bw):
-        # too coarse to resolve the modes: a finer grid if it costs less than the fine sweep
-        # that would follow the coarse one (one acquisition more with tones; with one tone,
-        # at most the coarse grid's points again)
+        # too coarse to resolve the modes: a finer grid if one more acquisition pays for it
         needed = math.ceil(float(np.max(half / (RESOLVED_STEP * bw))) - 1e-9)
         finer = _mode_points(guess, plan, points_per_bw, needed)
-        budget = 2 * points.size if plan.tones <= 1 else tone_budget(points.size, plan.tones, 1)
-        return finer if finer.size <= budget else points
-    if plan.tones <= 1:
+        if finer.size <= tone_budget(points.size, plan.tones, extra=1):
+            return finer
         return points
     spill = points.size % plan.tones
     if points.size - spill >= MIN_POINTS and 0 < spill <= ANCHORS // 2:
@@ -368,8 +369,7 @@ def locate_plan(plan: SweepPlan, points: int = LOCATE_POINTS) -> SweepPlan:
     so its step is ``resolution_hz`` or ``band / (points - 1)``, whichever is coarser; a sweep
     that does not locate them is followed by one four times as dense, then by the band at
     ``resolution_hz`` (each only if it has fewer points than the next). Its points do not
-    depend on the device's tones: rounded down to whole acquisitions (56 of 61 with 8 tones),
-    5 of 24 random gyros ended over 1 mHz against 1 (docs/bench-time.md).
+    depend on the device's tones.
     """
     lo, hi = plan.band_hz
     step = max(plan.resolution_hz, (hi - lo) / (points - 1))

@@ -21,6 +21,7 @@ from truths import write_toml
 from sysid_core.cli import main
 from sysid_core.errors import BiasLimitError, DeviceError
 from sysid_core.run.config import parse_config
+from sysid_core.run.lean import LOCATE_POINTS
 from sysid_core.run.pipeline import TuningRun
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -91,7 +92,7 @@ def test_answered_by_an_operator_it_tunes_like_the_built_in_device(
     assert result["converged"] and result["device"] == "exchange"
     first = json.loads((folder / "request-0001.json").read_text())
     assert first["id"] == 1 and first["electrodes"] == ["B1", "B2", "B3"]
-    assert first["bias_v"] == [0.0, 0.0, 0.0] and len(first["frequencies_hz"]) == 61
+    assert first["bias_v"] == [0.0, 0.0, 0.0] and len(first["frequencies_hz"]) == LOCATE_POINTS
     assert result["experiments"] == len(list(folder.glob("response-*.csv"))), log
 
 
@@ -106,7 +107,9 @@ def test_progress_says_which_biases_to_set_and_which_file_to_write(tmp_path: Pat
     finally:
         stop(proc)
     first = next(m for m in said if m.startswith("exchange: request-0001.json"))
-    assert "set B1 = 0 V, B2 = 0 V, B3 = 0 V, measure 4385-4445 Hz (61 points)" in first
+    assert (
+        f"set B1 = 0 V, B2 = 0 V, B3 = 0 V, measure 4385-4445 Hz ({LOCATE_POINTS} points)" in first
+    )
     assert f"write response-0001.csv (or .s2p, .mat, .nc) in {folder}" in first
 
 

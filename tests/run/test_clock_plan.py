@@ -89,22 +89,15 @@ def test_with_tones_a_mode_grid_fills_whole_acquisitions() -> None:
     # 18 points would spill 2 into a third acquisition: 2 of the nearer anchors are dropped
     assert eight.size == 16 and set(eight) <= set(one)
     assert one.size - eight.size <= ANCHORS // 2
-    # a verification grid around uncertain modes resolves them in one sweep when that costs
-    # less than the fine sweep a coarse one would need: one acquisition more with tones, at
-    # most the coarse grid's points again with one tone
+    # a verification grid around uncertain modes resolves them in one sweep when one more
+    # acquisition pays for it; without tones it stays coarse (a fine sweep follows)
     uncertain = ModeGuess.of([4428.0, 4432.0], [0.08, 0.08], 0.08)
-    coarse = mode_grid(uncertain, PLAN)
-    one_tone = mode_grid(uncertain, PLAN, resolve=True)
+    coarse = mode_grid(uncertain, PLAN, resolve=True)
     fine = mode_grid(uncertain, dataclasses.replace(PLAN, tones=8), resolve=True)
     near = lambda g: np.diff(g[np.abs(g - 4428.0) < 0.4])  # noqa: E731
     assert near(coarse).max() > RESOLVED_STEP * 0.08
-    for resolved in (one_tone, fine):
-        assert near(resolved).max() <= RESOLVED_STEP * 0.08 + 1e-9
-    assert coarse.size < one_tone.size <= 2 * coarse.size
+    assert near(fine).max() <= RESOLVED_STEP * 0.08 + 1e-9
     assert -(-fine.size // 8) <= -(-coarse.size // 8) + 1
-    # too uncertain to resolve at that price: the coarse grid (a fine sweep follows if needed)
-    vague = ModeGuess.of([4428.0, 4432.0], [0.08, 0.08], 1.0)
-    assert np.array_equal(mode_grid(vague, PLAN, resolve=True), mode_grid(vague, PLAN))
 
 
 @settings(max_examples=60, deadline=None)
@@ -150,10 +143,10 @@ def test_from_a_previous_model_no_locating_sweep_and_no_design(tmp_path: Path) -
     result = tune(config, tmp_path / "again", plots=False, device=gyro, from_model=model)
     assert result.converged
     assert gyro.gyro.true_split_hz(result.bias) <= 0.001
-    # one grid at the start and one verification per iteration: no 61-point locating sweep,
-    # no design of three biases
+    # one grid at the start and one verification per iteration: no locating sweep,
+    # no design of five biases
     assert max(gyro.sweeps) < 40 and len(gyro.sweeps) == 1 + result.iterations
-    assert result.points < first.points
+    assert result.points < first.points / 2
     # the same from the command line, with a wrong model refused in one line
     assert load_model(model).electrodes == ["B1", "B2"]
 
@@ -162,7 +155,7 @@ def test_a_model_that_does_not_help_falls_back_to_the_design(tmp_path: Path) -> 
     first = tune(CONFIG, tmp_path / "first", plots=False, device=bench_gyro(3))
     model = load_model(tmp_path / "first" / f"iter{first.iterations:02d}" / "model.nc")
     # a model whose bias law is off by a third: its answers do not bring the split down
-    wrong = dataclasses.replace(model, Kp=1.33 * np.asarray(model.Kp))
+    wrong = dataclasses.replace(model, Kp=[1.33 * np.asarray(k) for k in model.Kp])
     gyro = Counting(bench_gyro(5))
     result = tune(CONFIG, tmp_path / "wrong", plots=False, device=gyro, from_model=wrong)
     assert gyro.gyro.true_split_hz(result.bias) <= 0.002

@@ -16,7 +16,7 @@ from sysid_random_gyro import RandomGyro
 
 from sysid_core.errors import ConfigError, DeviceError, UnreachableTuningError
 from sysid_core.run import lean
-from sysid_core.run.config import parse_config
+from sysid_core.run.config import ExperimentConfig, parse_config
 from sysid_core.run.evidence import local_steps
 from sysid_core.run.lean import ModeGuess, mode_grid, scout_grid
 from sysid_core.run.pipeline import TuningRun
@@ -138,23 +138,24 @@ def test_lean_run_tunes_on_few_points(lean_run: tuple[Path, Any, Recording]) -> 
         assert files(out, f"iter{rec.iteration:02d}") == ["verify.nc"]
 
 
-def test_a_v2_gyro_tunes_on_fewer_points_with_the_linear_law_and_a_short_locate(
+def test_a_v2_gyro_tunes_on_fewer_points_with_the_linear_law(
     lean_run: tuple[Path, Any, Recording], tmp_path: Path
 ) -> None:
     # the cloverleaf's electrodes follow v²: the linear law needs a one-sided design (3 biases,
-    # not 5), and its narrow band is located by 31 points
+    # not 5); locate_points sets the locating sweep
     config = {
         **MAIN_JOB,
         "model": {"stiffness": "linear"},
-        "experiment": {**MAIN_JOB["experiment"], "locate_points": 31},
+        "experiment": {**MAIN_JOB["experiment"], "locate_points": 21},
     }
     dev = Recording(seed=1)
     summary = TuningRun(parse_config(config), tmp_path, device=dev, plots=False).run()
     assert summary.converged and dev.true_split_hz(summary.bias) <= 0.001
-    assert dev.calls[0][1] == 31
+    assert dev.calls[0][1] == 21
     assert files(tmp_path, "iter01")[:3] == ["exp0.nc", "exp1.nc", "exp2.nc"]
     assert "exp3.nc" not in files(tmp_path, "iter01")
     assert summary.points < lean_run[1].points
+    assert ExperimentConfig().locate_points == lean.LOCATE_POINTS
 
 
 def test_the_locate_points_are_checked() -> None:
