@@ -12,7 +12,8 @@ A run that never gets there counts as never (an infinite time) in the percentile
 model structure that matches its dynamics (``act`` or ``sen``, as in docs/random-gyro.md).
 Degenerate modes with B1 and B2, acceptance 1 mHz, up to 4 iterations. With ``--from-model``,
 each run starts from the last model of a previous run on the same gyro (from 0 V, other noise and
-drift; its own time is not counted).
+drift; its own time is not counted). ``--model`` and ``--experiment`` add a ``[model]`` or
+``[experiment]`` table given as JSON (``--model '{"stiffness": "linear"}'``).
 
 After every measurement a recorder reads the TRUE split at that bias on the clock (the run never
 sees it). The time to 1 mHz is the clock at the end of the first verification of an answer
@@ -200,7 +201,17 @@ def main() -> None:
             print(row(folder.name, [json.loads(line) for line in lines]))
         return
     args.out.mkdir(parents=True, exist_ok=True)
-    experiment, model = json.loads(args.experiment), json.loads(args.model)
+    tables = {}
+    for flag in ("experiment", "model"):
+        try:
+            tables[flag] = json.loads(getattr(args, flag))
+        except json.JSONDecodeError as exc:
+            parser.error(
+                f'--{flag} must be a JSON object such as \'{{"stiffness": "linear"}}\': {exc}'
+            )
+        if not isinstance(tables[flag], dict):
+            parser.error(f"--{flag} must be a JSON object, got {getattr(args, flag)}")
+    experiment, model = tables["experiment"], tables["model"]
     which = list(range(1, args.starts + 1)) if args.gyro == "cloverleaf" else seeds(args.seeds)
     records = []
     with (args.out / "runs.jsonl").open("w") as log:
