@@ -211,8 +211,8 @@ def mode_grid(
     Around each mode ``±h`` with ``h = CORE_BANDWIDTHS·bw + 2σ``, at a step of
     ``bw / POINTS_PER_BANDWIDTH`` or ``h / MAX_HALF_POINTS``, whichever is coarser; then the
     :data:`ANCHORS` far points of :func:`anchors`. Everything inside the plan's band; never
-    fewer than :data:`~sysid_core.run.sweeps.MIN_POINTS` points (the step is refined until there
-    are).
+    fewer than :data:`~sysid_core.run.sweeps.MIN_POINTS` points (the step is halved and the points
+    per mode doubled until there are: modes at the band's edge, whose far points merge there).
 
     With a device that measures several tones per acquisition (``plan.tones > 1``) the grid
     is fitted to whole acquisitions: when a few points (at most ``ANCHORS / 2``) would spill
