@@ -9,8 +9,9 @@ attaches the answer's confidence region.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -29,7 +30,11 @@ from sysid_core.tuning.criteria import (
     solve_criterion,
 )
 
-__all__ = ["Answer", "answer", "apply_best_code", "best_effort", "reach_with"]
+__all__ = ["Answer", "answer", "apply_best_code", "best_effort", "dac_floor", "reach_with"]
+
+#: The DAC's floor is said when its best code near an answer is predicted to leave at least this
+#: share of the acceptance.
+DAC_FLOOR_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -67,12 +72,14 @@ def answer(
     last_iteration: bool,
     say: Callable[[str], None],
     every_sweep: Callable[[], FittedModel | None] | None = None,
+    acceptance_hz: float | None = None,
 ) -> Answer:
     """The answer of iteration ``it`` (see the module).
 
     If ``model`` finds the goal unreachable and ``every_sweep()`` gives a model of every sweep
     of the run (None when ``model`` already is one), that model answers if it reaches the goal
-    (:func:`reach_with`); otherwise :func:`best_effort` decides.
+    (:func:`reach_with`); otherwise :func:`best_effort` decides. With ``acceptance_hz``, an
+    answer whose DAC code leaves a sizeable share of it is said (:func:`dac_floor`).
     """
     try:
         result, local = solve_criterion(criterion, model, space)
@@ -85,12 +92,37 @@ def answer(
                 "limits; answering from it"
             )
             result, local, space = found
-            return _applied(result, local, other, space, device)
-        result = best_effort(
-            exc, criterion.name, model, space, device, it, bias_step, last_iteration, say
+            model = other
+        else:
+            result = best_effort(
+                exc, criterion.name, model, space, device, it, bias_step, last_iteration, say
+            )
+            local = model
+    step = _applied(result, local, model, space, device)
+    floor = dac_floor(step.result.info, acceptance_hz)
+    if floor is not None and acceptance_hz is not None:
+        say(
+            f"iteration {it}: the DAC limits this answer: its best code nearby is predicted to "
+            f"leave {floor * 1e3:.3g} mHz (acceptance {acceptance_hz * 1e3:.3g} mHz); a finer "
+            "DAC, another electrode or a wider acceptance would help"
         )
-        local = model
-    return _applied(result, local, model, space, device)
+    return step
+
+
+def dac_floor(info: Mapping[str, Any], acceptance_hz: float | None) -> float | None:
+    """The split the model predicts at an answer's DAC code, if the DAC limits it, else None.
+
+    ``info``: the answer's ``TuningResult.info`` (or its ``tuning.json``). The DAC limits it
+    when the answer was moved to a DAC code (``"dac_code"``), its goal was reachable, and the
+    code leaves at least :data:`DAC_FLOOR_SHARE` of ``acceptance_hz``: the codes around the
+    answer are too coarse for the acceptance (random gyro 205, 22 kHz, 16 bits: 0.70 mHz
+    predicted at the best code, 1.1-1.3 mHz measured, acceptance 1 mHz).
+    """
+    code = info.get("dac_code")
+    if acceptance_hz is None or not code or "unreachable" in info:
+        return None
+    split = float(code["predicted_split_hz_chosen"])
+    return split if split >= DAC_FLOOR_SHARE * acceptance_hz else None
 
 
 def reach_with(

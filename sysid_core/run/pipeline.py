@@ -343,6 +343,7 @@ class TuningRun:
             last_iteration=it >= self.config.tuning.max_iterations,
             say=self.say,
             every_sweep=every_sweep,
+            acceptance_hz=self.config.tuning.acceptance_hz,
         )
         result = step.result
         write_json(folder / "tuning.json", result.as_dict())

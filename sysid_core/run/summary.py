@@ -15,6 +15,7 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.model.fitted import FittedModel
+from sysid_core.run.answer import dac_floor
 from sysid_core.run.verification import Verification
 from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion, Goal, TuningResult
 
@@ -188,16 +189,34 @@ class RunSummary:
         }
 
 
-def status_line(it: int, ver: Verification, goals: list[Goal], converged: bool) -> str:
-    """One sentence on how a run stands after iteration ``it``."""
+def status_line(
+    it: int,
+    ver: Verification,
+    goals: list[Goal],
+    converged: bool,
+    dac_floor_hz: float | None = None,
+) -> str:
+    """One sentence on how a run stands after iteration ``it``.
+
+    ``dac_floor_hz``: the split the model predicts at the last answer's DAC code when the DAC
+    limits it (:func:`sysid_core.run.answer.dac_floor`), said with goals not met.
+    """
     if converged:
         return f"converged after {it} iteration(s): {ver.describe()}; goals met: " + ", ".join(
             str(g) for g in goals
         )
     if not ver.verified:
         return f"NOT converged after {it} iteration(s): not verified, {ver.describe()}"
-    return f"NOT converged after {it} iteration(s): {ver.describe()}; goals not met: " + ", ".join(
-        str(g) for g in goals if not g.met
+    dac = (
+        ""
+        if dac_floor_hz is None
+        else f"; the DAC limits it: its best code there is predicted to leave "
+        f"{dac_floor_hz * 1e3:.3g} mHz"
+    )
+    return (
+        f"NOT converged after {it} iteration(s): {ver.describe()}; goals not met: "
+        + ", ".join(str(g) for g in goals if not g.met)
+        + dac
     )
 
 
@@ -266,7 +285,13 @@ def summarize(
         verified=ver.verified,
         goals=[g.as_dict() for g in goals],
         confidence=None if confidence is None else confidence.as_dict(),
-        status=status_line(last.iteration, ver, goals, converged),
+        status=status_line(
+            last.iteration,
+            ver,
+            goals,
+            converged,
+            dac_floor(last.tuning, next((g.limit_hz for g in goals if g.name == "split"), None)),
+        ),
         history=list(history),
         notes=list(notes),
         drift_common_hz_per_h=drift_hz_per_h,

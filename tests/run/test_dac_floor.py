@@ -1,0 +1,71 @@
+"""A DAC too coarse for the acceptance is said, in the progress and in the status.
+
+Truth: the cloverleaf with a 10-bit DAC (19.5 mV codes over ±10 V). Around the degenerate bias
+no code of B1 and B2 brings the true split under the 1 mHz acceptance: the run cannot converge,
+and it says why. With the default 16 bits it converges and says nothing of the DAC.
+"""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import numpy as np
+from sysid_cloverleaf import CloverleafGyro
+
+from sysid_core.run.answer import DAC_FLOOR_SHARE, dac_floor
+from sysid_core.run.config import parse_config
+from sysid_core.run.pipeline import TuningRun
+
+ACCEPTANCE = 0.001
+
+
+def config() -> dict:
+    return {
+        "device": {"name": "cloverleaf", "seed": 1},
+        "tuning": {
+            "criterion": "degenerate",
+            "electrodes": ["B1", "B2"],
+            "start_bias": [0.0, 0.0, 0.0],
+            "acceptance_hz": ACCEPTANCE,
+            "max_iterations": 2,
+        },
+        "experiment": {"band_hz": [4385.0, 4445.0]},
+    }
+
+
+def test_a_dac_too_coarse_for_the_acceptance_is_said(tmp_path: Path) -> None:
+    gyro = CloverleafGyro(seed=1, dac_bits=10)
+    lines: list[str] = []
+    summary = TuningRun(
+        parse_config(config()), tmp_path / "ten", device=gyro, plots=False, progress=lines.append
+    ).run()
+    said = [line for line in lines if "the DAC limits this answer" in line]
+    assert not summary.converged and said
+    assert "the DAC limits it: its best code there is predicted to leave" in summary.status
+    # the truth agrees: no code one step around the final bias is within the acceptance
+    step = gyro.bias_resolution
+    best = min(
+        gyro.true_split_hz(summary.bias + np.array([d1 * step, d2 * step, 0.0]))
+        for d1, d2 in itertools.product((-1, 0, 1), repeat=2)
+    )
+    assert best > ACCEPTANCE
+    # ... and with 16 bits nothing is said
+    lines.clear()
+    fine = TuningRun(
+        parse_config(config()),
+        tmp_path / "sixteen",
+        device=CloverleafGyro(seed=1),
+        plots=False,
+        progress=lines.append,
+    ).run()
+    assert fine.converged and not any("DAC" in line for line in lines)
+
+
+def test_the_dac_floor_needs_a_code_a_reachable_goal_and_a_sizeable_share() -> None:
+    code = {"dac_code": {"predicted_split_hz_chosen": 0.0006}}
+    assert dac_floor(code, 0.001) == 0.0006
+    assert dac_floor(code, 0.0006 / DAC_FLOOR_SHARE * 1.01) is None
+    assert dac_floor(code, None) is None
+    assert dac_floor({}, 0.001) is None
+    assert dac_floor({**code, "unreachable": "out of the limits"}, 0.001) is None
