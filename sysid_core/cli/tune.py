@@ -98,8 +98,12 @@ def tune_cmd(
             f"results and plots in {target}/ (summary.json, bias_path.{plot_format}, iterNN/)"
         )
     if not summary.converged:
+        more = (
+            "a finer DAC, another tuned electrode or a wider [tuning] acceptance_hz"
+            if "the DAC limits it" in summary.status
+            else "run again with more [tuning] max_iterations in a new --out"
+        )
         raise NotConvergedError(
-            f"{summary.status}; results in {target}/ (run again with more [tuning] "
-            f"max_iterations in a new --out, or inspect {target}/summary.json)",
+            f"{summary.status}; results in {target}/ ({more}, or inspect {target}/summary.json)",
             summary,
         )

@@ -11,8 +11,11 @@ import itertools
 from pathlib import Path
 
 import numpy as np
+import pytest
 from sysid_cloverleaf import CloverleafGyro
+from truths import write_toml
 
+from sysid_core.cli import main
 from sysid_core.run.answer import DAC_FLOOR_SHARE, dac_floor
 from sysid_core.run.config import parse_config
 from sysid_core.run.pipeline import TuningRun
@@ -69,3 +72,16 @@ def test_the_dac_floor_needs_a_code_a_reachable_goal_and_a_sizeable_share() -> N
     assert dac_floor(code, None) is None
     assert dac_floor({}, 0.001) is None
     assert dac_floor({**code, "unreachable": "out of the limits"}, 0.001) is None
+
+
+def test_the_command_line_points_at_the_dac_not_at_more_iterations(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tables = config()
+    tables["device"] = {**tables["device"], "dac_bits": 10}
+    path = write_toml(tmp_path / "coarse.toml", tables)
+    code = main(["tune", str(path), "--out", str(tmp_path / "run"), "--no-plots"])
+    last = capsys.readouterr().err.strip().splitlines()[-1]  # after the progress lines
+    assert code == 1 and last.startswith("sysid: error: NOT converged")
+    assert "the DAC limits it" in last and "a finer DAC, another tuned electrode" in last
+    assert "max_iterations" not in last
