@@ -182,8 +182,9 @@ class ExperimentConfig(_Strict):
     ``locate_points`` (default 61) is the most points of a lean run's whole-band sweep, which
     only locates the modes (the band at ``resolution_hz`` when that has fewer). Measured with 31
     (docs/bench-time.md): with a good lab's drift, 10-30 % less time to a split of 1 mHz on the
-    cloverleaf and on 72 random gyros, as many ending within it; on drifting benches
-    (docs/drift.md's 14 population rows) 233 of 336 runs ended within 2 mHz against 247.
+    cloverleaf and on 72 random gyros, as many ending within it; over docs/drift.md's 14
+    population rows (the uncontrolled lab lost most) 233 of 336 runs ended within 2 mHz
+    against 247.
 
     ``max_passes`` (default 1: never repeat) bounds how many passes of a verification window
     are averaged when its noise hides the split (:mod:`sysid_core.run.passes`): for a bench of

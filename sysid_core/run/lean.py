@@ -79,8 +79,8 @@ SCOUT_SPLITS = 0.5
 #: ... and by at least this many bandwidths.
 SCOUT_BANDWIDTHS = 10.0
 #: Most points of a lean run's whole-band sweep (it only locates the modes); ``[experiment]
-#: locate_points`` sets it (31: 10-30 % less time without drift, less accurate on drifting
-#: benches: docs/bench-time.md).
+#: locate_points`` sets it (31: 10-30 % less time, less accurate in the uncontrolled lab:
+#: docs/bench-time.md).
 LOCATE_POINTS = 61
 #: How fast the modes may move on a bench with a clock (ppm of their frequency per hour): an
 #: uncontrolled lab's 1.5 K/h at -30 ppm/K, plus its random walk over a few minutes.
