@@ -111,6 +111,24 @@ def write_toml(path: Path, tables: dict[str, dict[str, Any]]) -> Path:
     return path
 
 
+def cloverleaf_config(
+    acceptance_hz: float, iterations: int, **sections: dict[str, Any]
+) -> dict[str, Any]:
+    """A run of the cloverleaf (seed 1) to degenerate modes with B1 and B2 from 0 V; more
+    tables (``experiment``, ``model``...) from ``sections``."""
+    return {
+        "device": {"name": "cloverleaf", "seed": 1},
+        "tuning": {
+            "criterion": "degenerate",
+            "electrodes": ["B1", "B2"],
+            "start_bias": [0.0, 0.0, 0.0],
+            "acceptance_hz": acceptance_hz,
+            "max_iterations": iterations,
+        },
+        **sections,
+    }
+
+
 def degenerate_config(
     device: Any,
     options: dict[str, Any],

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from sysid_cloverleaf import CloverleafGyro
+from truths import cloverleaf_config
 
 from sysid_core.data.schema import load_dataset
 from sysid_core.model.modal import modal_analysis
@@ -21,17 +22,11 @@ MEASUREMENT = re.compile(r"(exp\d+|verify(-\d+)?)\.nc")
 
 
 def _config(**experiment: float) -> dict:
-    return {
-        "device": {"name": "cloverleaf", "seed": 1},
-        "tuning": {
-            "criterion": "degenerate",
-            "electrodes": ["B1", "B2"],
-            "start_bias": [0.0, 0.0, 0.0],
-            "max_iterations": 2,
-            "acceptance_hz": 1e-12,
-        },
-        "experiment": {"resolution_hz": 1.0, "verify_resolution_hz": 0.02, **experiment},
-    }
+    return cloverleaf_config(
+        1e-12,
+        2,
+        experiment={"resolution_hz": 1.0, "verify_resolution_hz": 0.02, **experiment},
+    )
 
 
 def _points_on_disk(out: Path) -> int:

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from sysid_cloverleaf import CloverleafGyro
-from truths import write_toml
+from truths import cloverleaf_config, write_toml
 
 from sysid_core.cli import main
 from sysid_core.run.answer import DAC_FLOOR_SHARE, dac_floor
@@ -24,17 +24,7 @@ ACCEPTANCE = 0.001
 
 
 def config() -> dict:
-    return {
-        "device": {"name": "cloverleaf", "seed": 1},
-        "tuning": {
-            "criterion": "degenerate",
-            "electrodes": ["B1", "B2"],
-            "start_bias": [0.0, 0.0, 0.0],
-            "acceptance_hz": ACCEPTANCE,
-            "max_iterations": 2,
-        },
-        "experiment": {"band_hz": [4385.0, 4445.0]},
-    }
+    return cloverleaf_config(ACCEPTANCE, 2, experiment={"band_hz": [4385.0, 4445.0]})
 
 
 def test_a_dac_too_coarse_for_the_acceptance_is_said(tmp_path: Path) -> None:
