@@ -42,6 +42,7 @@ def tune_cmd(
     from sysid_core.errors import NotConvergedError
     from sysid_core.run.config import load_config
     from sysid_core.run.pipeline import TuningRun
+    from sysid_core.run.summary import DAC_LIMITS
 
     cfg = load_config(config)
     prior = None if from_model is None else load_model(from_model)
@@ -100,7 +101,7 @@ def tune_cmd(
     if not summary.converged:
         more = (
             "a finer DAC, another tuned electrode or a wider [tuning] acceptance_hz"
-            if "the DAC limits it" in summary.status
+            if DAC_LIMITS in summary.status
             else "run again with more [tuning] max_iterations in a new --out"
         )
         raise NotConvergedError(

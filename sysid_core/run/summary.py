@@ -19,10 +19,19 @@ from sysid_core.run.answer import dac_floor
 from sysid_core.run.verification import Verification
 from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion, Goal, TuningResult
 
-__all__ = ["CONFIDENCE_KEYS", "IterationRecord", "RunSummary", "status_line", "summarize"]
+__all__ = [
+    "CONFIDENCE_KEYS",
+    "DAC_LIMITS",
+    "IterationRecord",
+    "RunSummary",
+    "status_line",
+    "summarize",
+]
 
 #: The confidence region's keys in ``summary.json`` and the ``--json`` line.
 CONFIDENCE_KEYS = ("confidence_level", "bias_ci", "split_ci_hz", "frequency_ci_hz")
+#: What the status of a run that did not converge says when the DAC limits its last answer.
+DAC_LIMITS = "the DAC limits it"
 
 
 @dataclass
@@ -210,7 +219,7 @@ def status_line(
     dac = (
         ""
         if dac_floor_hz is None
-        else f"; the DAC limits it: its best code there is predicted to leave "
+        else f"; {DAC_LIMITS}: its best code there is predicted to leave "
         f"{dac_floor_hz * 1e3:.3g} mHz"
     )
     return (
