@@ -122,6 +122,7 @@ class TuningConfig(_Strict):
     start_bias: list[float] | None = None
     acceptance_hz: float = Field(0.01, gt=0)
     max_iterations: int = Field(3, ge=1, le=50)
+    aim: float | None = Field(None, gt=0, le=1)
     target_hz: float | None = Field(None, gt=0)
     electrodes: list[str] | None = None
     tolerance_hz: float | None = Field(None, gt=0)

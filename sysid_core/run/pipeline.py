@@ -48,7 +48,7 @@ from sysid_core.run.benchtime import dwell, settle, tones
 from sysid_core.run.components import build_components
 from sysid_core.run.config import PipelineConfig
 from sysid_core.run.fitter import Fitter
-from sysid_core.run.judgement import honest_goals, twin_goal
+from sysid_core.run.judgement import aim_fraction, honest_goals, twin_goal
 from sysid_core.run.plots import PLOT_FORMATS, plot_bias_path, plot_iteration
 from sysid_core.run.protocols import RunContext, make_protocol
 from sysid_core.run.summary import IterationRecord, RunSummary, summarize
@@ -209,7 +209,7 @@ class TuningRun:
         history: list[IterationRecord] = []
         path, regions = [bias.tolist()], []
         center: float | None = None
-        split = 0.0
+        split, aim = 0.0, aim_fraction(cfg.aim, self.tracker is not None)
         for it in range(1, cfg.max_iterations + 1):
             folder = self.out / f"iter{it:02d}"
             t0 = time.perf_counter()
@@ -226,7 +226,7 @@ class TuningRun:
                 self.tracker.learned(ver)
             goals: list[Goal] = (
                 self.criterion.goals(ver.frequencies_hz, cfg.acceptance_hz)
-                + honest_goals(ver, now, cfg.acceptance_hz)
+                + honest_goals(ver, now, cfg.acceptance_hz, aim)
                 if ver.verified and ver.frequencies_hz is not None
                 else []
             )

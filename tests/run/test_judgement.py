@@ -7,14 +7,24 @@ Truth: the simulated gyro's undamped modal frequencies at the end of the run
 from __future__ import annotations
 
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
+import xarray as xr
 from truths import degenerate_config
 
 from sysid_core import tune
+from sysid_core.errors import ConfigError
 from sysid_core.plugin.registry import get_registry
-from sysid_core.run.judgement import RESOLVE_FACTOR, holds_s
+from sysid_core.run.judgement import (
+    DRIFTING_AIM,
+    RESOLVE_FACTOR,
+    aim_fraction,
+    holds_s,
+    honest_goals,
+)
+from sysid_core.run.verification import Verification
 
 ACCEPTANCE = 0.002
 
@@ -95,3 +105,38 @@ def test_a_last_fit_of_undrifted_clock_data_does_not_conclude_unreachable(
     assert any("not concluded" in line for line in lines)
     with pytest.raises(UnreachableTuningError, match="4460"):
         tune(config, tmp_path / "frozen", device=CloverleafGyro(seed=1), plots=False)
+
+
+@pytest.mark.parametrize(
+    ("configured", "tracking", "expected"),
+    [(None, False, 1.0), (None, True, DRIFTING_AIM), (0.8, True, 0.8), (0.3, False, 0.3)],
+)
+def test_the_aim_is_half_the_acceptance_when_the_run_tracks_the_drift(
+    configured: float | None, tracking: bool, expected: float
+) -> None:
+    assert aim_fraction(configured, tracking) == expected
+
+
+def test_a_split_under_the_acceptance_but_over_the_aim_is_a_goal_not_met() -> None:
+    """1.5 mHz measured, acceptance 2 mHz: met as a split, not at half the acceptance."""
+    window = xr.Dataset(coords={"frequency": np.linspace(1000.0, 1001.0, 5)})
+    # a model without a covariance or a drift trend: only the split's goals apply
+    model = SimpleNamespace(stiffness_factor=None, electrodes=[], meta={})
+    ver = Verification("verified", np.array([1000.5, 1000.5015]), [], window, model)  # type: ignore[arg-type]
+    plain = honest_goals(ver, model, ACCEPTANCE)  # type: ignore[arg-type]
+    aimed = honest_goals(ver, model, ACCEPTANCE, aim=0.5)  # type: ignore[arg-type]
+    assert all(g.met for g in plain)
+    missed = [g for g in aimed if not g.met]
+    assert len(missed) == 1 and missed[0].limit_hz == pytest.approx(0.5 * ACCEPTANCE)
+    assert "aiming at 0.5 of the acceptance" in str(missed[0])
+
+
+@pytest.mark.parametrize("aim", [0.0, -0.5, 1.5])
+def test_an_aim_outside_0_1_is_refused_in_one_line(tmp_path: Path, aim: float) -> None:
+    config = {
+        "device": {"name": "cloverleaf", "seed": 1},
+        "tuning": {"criterion": "degenerate", "electrodes": ["B1", "B2"], "aim": aim},
+    }
+    with pytest.raises(ConfigError, match="aim") as err:
+        tune(config, tmp_path / "run", plots=False)
+    assert "\n" not in str(err.value)

@@ -57,6 +57,10 @@ def test_tracking_tunes_a_charging_gyro_that_the_average_model_cannot(tmp_path: 
     assert still > 2 * ACCEPTANCE
     assert tracked < ACCEPTANCE
     assert summary["converged"]
+    # a tracked run aims at half the acceptance (judgement.DRIFTING_AIM)
+    aim = [g for g in summary["goals"] if "aiming at" in g["name"]]
+    assert aim and aim[0]["limit_hz"] == pytest.approx(0.5 * ACCEPTANCE)
+    assert summary["split_hz"] <= 0.5 * ACCEPTANCE
     assert any("anchored on" in line for line in lines)
     assert (tmp_path / "track2" / "iter03" / "model-now.nc").exists()
 
