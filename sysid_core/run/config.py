@@ -7,8 +7,8 @@ Tables (the public contract, docs/contracts.md)::
     [model.options]   the structure's other options
     [objective]       name = "least-squares" | "minimax", plus the objective's options
     [solver]          name = "clarabel" | "scs", plus the solver's options
-    [tuning]          criterion, start_bias, acceptance_hz, max_iterations, electrodes (subset
-                      to tune), and the criterion options target_hz, tolerance_hz
+    [tuning]          criterion, start_bias, acceptance_hz, max_iterations, aim, electrodes
+                      (subset to tune), and the criterion options target_hz, tolerance_hz
     [tuning.options]  the criterion's other options
     [experiment]      band_hz, resolution_hz, bias_step, refine_span_hz, refine_resolution_hz,
                       verify_span_hz, verify_resolution_hz, max_points, timeout_s
