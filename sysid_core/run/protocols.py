@@ -44,6 +44,7 @@ from sysid_core.run.passes import repeat_window
 from sysid_core.run.previous import PreviousModel
 from sysid_core.run.sweeps import SweepPlan
 from sysid_core.run.verification import Verification, verify
+from sysid_core.run.zoom import zoom_grid
 from sysid_core.tuning.criteria import ConfidenceRegion, TuningResult
 
 __all__ = ["FullProtocol", "LeanProtocol", "Prefit", "Protocol", "RunContext", "make_protocol"]
@@ -327,7 +328,8 @@ class LeanProtocol(Protocol):
         (:mod:`sysid_core.run.lean`); ``first`` overrides that choice. A sweep that does not
         show both modes is followed, at the same bias, by the locating band sweep, one four
         times as dense, then the band at ``resolution_hz``, until one shows them (or none is
-        left).
+        left); the first whole-band sweep that fails is followed at once by windows around the
+        modes it fitted (:func:`~sysid_core.run.zoom.zoom_grid`).
         """
         ctx = self.ctx
         guess, scout = self.known.guess(bias, ctx.fitter.structure, ctx.fitter.model)
@@ -349,7 +351,9 @@ class LeanProtocol(Protocol):
             ("-band", ctx.plan.band()),
         ]
         done: list[np.ndarray] = []
-        for suffix, freqs in tries:
+        zoomed = False
+        while tries:
+            suffix, freqs = tries.pop(0)
             if any(d.size == freqs.size and np.allclose(d, freqs) for d in done):
                 continue
             name = f"{path.stem}{suffix}.nc"
@@ -361,6 +365,10 @@ class LeanProtocol(Protocol):
                 f"{path.parent.name}/{name}: the sweep does not show both modes "
                 f"({evidence.failures()})"
             )
+            zoom = None if zoomed else zoom_grid(freqs, evidence, ctx.plan, denser.size)
+            if zoom is not None:  # windows around the modes it placed roughly
+                zoomed = True
+                tries.insert(0, ("-zoom", zoom))
 
 
 def make_protocol(ctx: RunContext, prior: FittedModel | None = None) -> Protocol:
