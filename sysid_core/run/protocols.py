@@ -361,12 +361,14 @@ class LeanProtocol(Protocol):
             if evidence.ok:
                 return
             done.append(freqs)
+            zoom = None if zoomed else zoom_grid(freqs, evidence, ctx.plan, denser.size)
+            placed = evidence.frequencies_hz
             ctx.say(
                 f"{path.parent.name}/{name}: the sweep does not show both modes "
                 f"({evidence.failures()})"
+                + ("" if zoom is None else f"; windows around {placed[0]:.3f} / {placed[1]:.3f} Hz")
             )
-            zoom = None if zoomed else zoom_grid(freqs, evidence, ctx.plan, denser.size)
-            if zoom is not None:  # windows around the modes it placed roughly
+            if zoom is not None:  # windows around the modes its fit placed roughly
                 zoomed = True
                 tries.insert(0, ("-zoom", zoom))
 
