@@ -4,12 +4,10 @@
 the predicted split is wider than it); if it shows both modes but too coarsely (a lean run's
 window around an uncertain prediction: only the resolution and the model's unsampled peak fail,
 :meth:`~sysid_core.run.evidence.WindowAssessment.too_coarse`), a fine window around them; if it
-fails, the whole band, whose fit locates the modes (in a lean run, if it does not, windows
-around the modes its fit placed: :mod:`sysid_core.run.zoom`); then, if they are close, a
-narrow window around the located modes. Each sweep is judged by
-:func:`sysid_core.run.evidence.assess_window`. A split from a whole-band sweep is reported as
-*located* (coarse); only a narrow window that passes every check *verifies* a split, and only a
-verified split can make a run converge.
+fails, the whole band, whose fit locates the modes; then, if they are close, a narrow window
+around the located modes. Each sweep is judged by :func:`sysid_core.run.evidence.assess_window`.
+A split from a whole-band sweep is reported as *located* (coarse); only a narrow window that
+passes every check *verifies* a split, and only a verified split can make a run converge.
 """
 
 from __future__ import annotations
@@ -25,7 +23,6 @@ from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import ModalReport
 from sysid_core.run.evidence import WindowAssessment
 from sysid_core.run.sweeps import SweepPlan
-from sysid_core.run.zoom import zoom_grid
 from sysid_core.tuning.criteria import TuningResult
 
 __all__ = ["Sweep", "Verification", "Window", "verify"]
@@ -94,34 +91,6 @@ class Verification:
         return "no sweep showed both modes: " + self.windows[-1].failures()
 
 
-def _locate(
-    plan: SweepPlan,
-    sweep: Sweep,
-    say: Callable[[str], None],
-    windows: list[WindowAssessment],
-    zoom: bool,
-) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
-    """The whole band, to locate the modes, and windows if it does not show them.
-
-    With ``zoom`` (a lean run), a band that does not show both modes is followed by windows
-    around the modes its fit placed (:func:`~sysid_core.run.zoom.zoom_grid`). Every sweep's
-    evidence is appended to ``windows``; returns the last sweep.
-    """
-    band = plan.band()
-    swept, vmodel, ev = sweep(band, "verify-band.nc", True)
-    windows.append(ev)
-    grid = zoom_grid(band, ev, plan, 4 * band.size) if zoom and not ev.ok else None
-    if grid is None:
-        return swept, vmodel, ev
-    say(
-        f"verification: the band does not show both modes ({ev.failures()}); windows "
-        f"around {ev.frequencies_hz[0]:.3f} / {ev.frequencies_hz[1]:.3f} Hz"
-    )
-    swept, vmodel, ev = sweep(grid, "verify-zoom.nc", True)
-    windows.append(ev)
-    return swept, vmodel, ev
-
-
 def verify(
     predicted_modes: ModalReport,
     predicted: TuningResult,
@@ -187,7 +156,8 @@ def verify(
             f"verification: predicted split {predicted.split_hz:.3g} Hz; sweeping the whole "
             "band to locate the modes"
         )
-    swept, vmodel, ev = _locate(plan, sweep, say, windows, zoom=lean is not None)
+    swept, vmodel, ev = sweep(plan.band(), "verify-band.nc", True)
+    windows.append(ev)
     if not ev.ok:
         return Verification("failed", None, windows, swept, vmodel)
     located = ev.frequencies_hz

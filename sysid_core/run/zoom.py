@@ -8,8 +8,7 @@ within half a step of the truth (1485.95 and 1490.25 Hz; true 1485.99 and 1490.7
 band swept four times as densely (200 points there) failed too (0.8): an equation-error fit of
 points that only see the modes' tails does not reproduce them.
 
-So a whole-band sweep that fails (an identification's, or a verification's in a lean run) is
-followed first by :func:`zoom_grid`: around each mode it
+So a whole-band sweep that fails is followed first by :func:`zoom_grid`: around each mode it
 fitted, ``± (half its step + 2 bandwidths)`` at most
 :data:`~sysid_core.run.lean.MAX_FINE_HALF_POINTS` points on either side
 (:func:`~sysid_core.run.lean.mode_grid` with ``fine``), where every mode has points within a

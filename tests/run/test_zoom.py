@@ -6,7 +6,6 @@ never sees.
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -89,29 +88,3 @@ def test_no_windows_for_modes_outside_the_band_or_a_sweep_that_was_not_the_band(
     window = np.linspace(1480.0, 1495.0, 20)
     assert zoom_grid(window, _failed([1486.0, 1490.0], [0.05, 0.05], 0.8), plan, 241) is None
     assert zoom_grid(swept, _failed([1486.0, 1490.0], [0.05, 0.05], 1.66), plan, limit=10) is None
-
-
-def test_a_lean_verification_zooms_where_its_band_sweep_fails() -> None:
-    """The verification's whole-band sweep fails: windows around its fitted modes follow (only
-    in a lean run), and their evidence is what the verification goes on with."""
-    from sysid_core.run.evidence import Check
-    from sysid_core.run.verification import _locate
-
-    plan = _plan()
-    measured: list[tuple[str, int]] = []
-
-    def sweep(freqs: np.ndarray, name: str, band: bool) -> tuple:
-        measured.append((name, freqs.size))
-        ev = _failed([1486.0, 1490.5], [0.045, 0.075], float(np.max(np.diff(freqs))))
-        ev.checks.append(Check("fit", name != "verify-band.nc", "a fake fit"))
-        return None, None, ev
-
-    lines: list[str] = []
-    coarse = dataclasses.replace(plan, resolution_hz=(1538.2 - 1438.5) / 60)
-    _, _, ev = _locate(coarse, sweep, lines.append, [], zoom=True)
-    assert ev.ok and [m[0] for m in measured] == ["verify-band.nc", "verify-zoom.nc"]
-    assert measured[1][1] < 4 * measured[0][1]
-    assert "windows around 1486.000 / 1490.500 Hz" in lines[0]
-    measured.clear()
-    _, _, ev = _locate(coarse, sweep, lines.append, [], zoom=False)  # the full protocol
-    assert not ev.ok and [m[0] for m in measured] == ["verify-band.nc"]
