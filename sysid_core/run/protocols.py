@@ -362,15 +362,16 @@ class LeanProtocol(Protocol):
                 return
             done.append(freqs)
             zoom = None if zoomed else zoom_grid(freqs, evidence, ctx.plan, denser.size)
-            placed = evidence.frequencies_hz
-            ctx.say(
-                f"{path.parent.name}/{name}: the sweep does not show both modes "
-                f"({evidence.failures()})"
-                + ("" if zoom is None else f"; windows around {placed[0]:.3f} / {placed[1]:.3f} Hz")
-            )
+            then = ""
             if zoom is not None:  # windows around the modes its fit placed roughly
                 zoomed = True
                 tries.insert(0, ("-zoom", zoom))
+                f = evidence.frequencies_hz
+                then = f"; windows around {f[0]:.3f} / {f[1]:.3f} Hz"
+            ctx.say(
+                f"{path.parent.name}/{name}: the sweep does not show both modes "
+                f"({evidence.failures()}){then}"
+            )
 
 
 def make_protocol(ctx: RunContext, prior: FittedModel | None = None) -> Protocol:
