@@ -42,6 +42,7 @@ from sysid_core.tuning.criteria import TuningResult
 __all__ = [
     "ANCHORS",
     "CORE_BANDWIDTHS",
+    "FINE_STEP",
     "LOCAL_RADIUS",
     "LOCATE_POINTS",
     "MAX_FINE_HALF_POINTS",
@@ -69,6 +70,9 @@ MAX_HALF_POINTS = 3
 #: A grid resolves a mode when its step there is at most this many bandwidths (the evidence's
 #: rule, :mod:`sysid_core.run.evidence`, with a margin).
 RESOLVED_STEP = 0.9
+#: A verification's fine window steps this many of the narrowest bandwidths a fit measured:
+#: fits scatter by 10-20 % (a step of 0.9 failed on a refit 7 % narrower).
+FINE_STEP = 0.75
 #: Far points of a mode grid (half on each side), for the slowly varying terms.
 ANCHORS = 4
 #: A model's predicted move of the modes is trusted to this fraction of the move.
@@ -79,14 +83,12 @@ SCOUT_SPLITS = 0.5
 #: ... and by at least this many bandwidths.
 SCOUT_BANDWIDTHS = 10.0
 #: Most points of a lean run's whole-band sweep (it only locates the modes); ``[experiment]
-#: locate_points`` sets it (31: 10-30 % less time, less accurate in the uncontrolled lab:
-#: docs/bench-time.md).
+#: locate_points`` sets it (31: less time, less accurate in the lab: docs/bench-time.md).
 LOCATE_POINTS = 61
 #: How fast the modes may move on a bench with a clock (ppm of their frequency per hour): an
 #: uncontrolled lab's 1.5 K/h at -30 ppm/K, plus its random walk over a few minutes.
 MOTION_PPM_PER_H = 60.0
-#: A fine grid (:func:`mode_grid` with ``fine``) gives each mode at most this many points on
-#: either side.
+#: A fine grid (:func:`mode_grid` with ``fine``) gives each mode at most this many points a side.
 MAX_FINE_HALF_POINTS = 12
 #: A model explains a verification when its modes miss the measured ones by at most this
 #: fraction of the measured split ...
@@ -204,7 +206,11 @@ def _mode_points(
 
 
 def mode_grid(
-    guess: ModeGuess, plan: SweepPlan, resolve: bool = False, fine: bool = False
+    guess: ModeGuess,
+    plan: SweepPlan,
+    resolve: bool = False,
+    fine: bool = False,
+    finest_hz: float | None = None,
 ) -> np.ndarray:
     """The points of a sweep around two modes whose frequencies are (roughly) known.
 
@@ -223,8 +229,10 @@ def mode_grid(
 
     With ``fine`` (the window around modes a sweep has just found, whose uncertainty is their
     motion since, :func:`motion_allowance`) the step is refined to :data:`RESOLVED_STEP`
-    bandwidths whatever the tones, with at most :data:`MAX_FINE_HALF_POINTS` points on either
-    side of a mode: the window is there to resolve them.
+    bandwidths, and to at most ``finest_hz`` when given (a verification's: :data:`FINE_STEP`
+    of the narrowest bandwidth a fit measured), whatever the tones, with at most
+    :data:`MAX_FINE_HALF_POINTS` points on either side of a mode: the window is there to
+    resolve them.
     """
     points_per_bw, max_half = POINTS_PER_BANDWIDTH, MAX_HALF_POINTS
     points = np.linspace(*plan.band_hz, MIN_POINTS)
@@ -238,9 +246,11 @@ def mode_grid(
         return points
     bw, half = guess.bandwidth_hz, guess.core_half_widths()
     step = np.maximum(bw / points_per_bw, half / max_half)
-    if fine and np.any(step > RESOLVED_STEP * bw):
-        needed = math.ceil(float(np.max(half / (RESOLVED_STEP * bw))) - 1e-9)
-        return _mode_points(guess, plan, points_per_bw, min(needed, MAX_FINE_HALF_POINTS))
+    target = np.minimum(RESOLVED_STEP * bw, np.inf if finest_hz is None else finest_hz)
+    if fine and np.any(step > target):
+        needed = math.ceil(float(np.max(half / target)) - 1e-9)
+        per_bw = max(points_per_bw, float(np.max(bw / target)))
+        return _mode_points(guess, plan, per_bw, min(needed, MAX_FINE_HALF_POINTS))
     if plan.tones <= 1:
         return points
     if resolve and np.any(step > RESOLVED_STEP * bw):

@@ -17,7 +17,6 @@ and the progress callback.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +31,7 @@ from sysid_core.run.evidence import WindowAssessment
 from sysid_core.run.knowledge import Knowledge
 from sysid_core.run.lean import (
     EXPLAIN_FLOOR_HZ,
+    FINE_STEP,
     LOCAL_RADIUS,
     ModeGuess,
     explained_gap,
@@ -43,7 +43,7 @@ from sysid_core.run.lean import (
 from sysid_core.run.passes import repeat_window
 from sysid_core.run.previous import PreviousModel
 from sysid_core.run.sweeps import SweepPlan
-from sysid_core.run.verification import Verification, verify
+from sysid_core.run.verification import Verification, Window, verify
 from sysid_core.run.zoom import zoom_grid
 from sysid_core.tuning.criteria import ConfidenceRegion, TuningResult
 
@@ -116,7 +116,7 @@ class Protocol(ABC):
         model: FittedModel,
         folder: Path,
         plan: SweepPlan,
-        lean: Callable[[float, float, bool], np.ndarray] | None = None,
+        lean: Window | None = None,
     ) -> Verification:
         def sweep(
             freqs: np.ndarray, name: str, band: bool
@@ -239,14 +239,22 @@ class LeanProtocol(Protocol):
         settle = settle_s(self.ctx.bench.device.device, exp.settle_s, model)[0] or 0.0
         centre, sigma = self.known.centre(bias, self.ctx.space.index, predicted, model, settle)
 
-        def window(center: float, split: float, around_prediction: bool) -> np.ndarray:
+        def window(
+            center: float, split: float, around_prediction: bool, seen: np.ndarray | None
+        ) -> np.ndarray:
             if around_prediction:
                 center, uncertainty = centre, sigma
             else:  # modes the last sweep found: they may have moved since (a clock's drift)
                 last = self.known.items[-1].data
                 uncertainty = motion_allowance(center, point_times(last, 0), settle)
             guess = ModeGuess.of([center - split / 2, center + split / 2], bw, uncertainty)
-            return mode_grid(guess, self.ctx.plan, resolve=True, fine=not around_prediction)
+            if around_prediction:
+                return mode_grid(guess, self.ctx.plan, resolve=True)
+            finest = None  # a second fine window resolves what the first one's fit measured
+            if seen is not None and np.all(np.isfinite(seen)):
+                narrowest = float(np.min(bw))
+                finest = FINE_STEP * max(min(narrowest, float(np.min(seen))), narrowest / 4)
+            return mode_grid(guess, self.ctx.plan, resolve=True, fine=True, finest_hz=finest)
 
         return self._verify_with(bias, predicted, model, folder, self.locate_plan, window)
 

@@ -3,11 +3,13 @@
 :func:`verify` runs the sweeps in order: the window around the predicted modes (skipped when
 the predicted split is wider than it); if it shows both modes but too coarsely (a lean run's
 window around an uncertain prediction: only the resolution and the model's unsampled peak fail,
-:meth:`~sysid_core.run.evidence.WindowAssessment.too_coarse`), a fine window around them; if it
-fails, the whole band, whose fit locates the modes; then, if they are close, a narrow window
-around the located modes. Each sweep is judged by :func:`sysid_core.run.evidence.assess_window`.
-A split from a whole-band sweep is reported as *located* (coarse); only a narrow window that
-passes every check *verifies* a split, and only a verified split can make a run converge.
+:meth:`~sysid_core.run.evidence.WindowAssessment.too_coarse`), a fine window around them, and
+one more, sized by the bandwidths its fit measured, if that is still too coarse; if it fails,
+the whole band, whose fit locates the modes; then, if they are close, a narrow window around
+the located modes (with its fine windows). Each sweep is judged by
+:func:`sysid_core.run.evidence.assess_window`. A split from a whole-band sweep is reported as
+*located* (coarse); only a narrow window that passes every check *verifies* a split, and only a
+verified split can make a run converge.
 """
 
 from __future__ import annotations
@@ -25,13 +27,16 @@ from sysid_core.run.evidence import WindowAssessment
 from sysid_core.run.sweeps import SweepPlan
 from sysid_core.tuning.criteria import TuningResult
 
-__all__ = ["Sweep", "Verification", "Window", "verify"]
+__all__ = ["MAX_FINE", "Sweep", "Verification", "Window", "verify"]
 
 #: Measures a sweep at the verified bias and fits it: ``(frequencies, file name, whole band?)``
 #: to ``(sweep, single-bias model, evidence)``.
 Sweep = Callable[[np.ndarray, str, bool], tuple[xr.Dataset, FittedModel, WindowAssessment]]
-#: Chooses a window's frequencies: ``(center, split, around a prediction?)`` to frequencies.
-Window = Callable[[float, float, bool], np.ndarray]
+#: Chooses a window's frequencies: ``(center, split, around a prediction?, bandwidths a sweep's
+#: fit has just measured there or None)`` to frequencies.
+Window = Callable[[float, float, bool, np.ndarray | None], np.ndarray]
+#: Fine windows measured in a row while each finds both modes but too coarsely.
+MAX_FINE = 2
 
 
 @dataclass
@@ -115,38 +120,33 @@ def verify(
         Receives progress lines.
     lean : callable, optional
         Chooses the windows' points instead of the plan's even grid (a lean run's
-        :func:`~sysid_core.run.lean.mode_grid`): ``(center, split, predicted)`` to frequencies,
-        ``predicted`` false for the window around modes a whole-band sweep located.
+        :func:`~sysid_core.run.lean.mode_grid`): ``(center, split, predicted, seen)`` to
+        frequencies, ``predicted`` false for a window around modes a sweep has just found,
+        ``seen`` the bandwidths that sweep's fit measured (or None).
     """
     rep = predicted_modes
     bw = rep.bandwidth_hz
     bw_min = float(np.min(bw)) if np.all(np.isfinite(bw) & (bw > 0)) else np.inf
     bw_max = float(np.max(bw)) if np.isfinite(bw_min) else 0.0
 
-    def window(center: float, split: float, predicted: bool = True) -> np.ndarray:
+    def window(
+        center: float, split: float, predicted: bool = True, seen: np.ndarray | None = None
+    ) -> np.ndarray:
         if lean is not None:
-            return lean(center, split, predicted)
+            return lean(center, split, predicted, seen)
         span = max(plan.verify_span_hz, 2 * split + 6 * bw_max)
-        return plan.window(center, span, min(plan.verify_resolution_hz, bw_min))
+        narrowest = bw_min if seen is None else min(bw_min, float(np.min(seen)))
+        return plan.window(center, span, min(plan.verify_resolution_hz, narrowest))
 
     windows: list[WindowAssessment] = []
+
+    def narrow(freqs: np.ndarray, stem: str) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
+        return _narrow(freqs, stem, sweep, window, say, windows)
+
     if predicted.split_hz < plan.verify_span_hz:
-        freqs = window(predicted.frequency_hz, predicted.split_hz)
-        swept, vmodel, ev = sweep(freqs, "verify.nc", False)
-        windows.append(ev)
+        swept, vmodel, ev = narrow(window(predicted.frequency_hz, predicted.split_hz), "verify")
         if ev.ok:
             return Verification("verified", ev.frequencies_hz, windows, swept, vmodel)
-        if ev.too_coarse():
-            # a coarse window (an uncertain prediction) found both modes: a fine one around them
-            say(
-                f"verification: modes found near {ev.frequencies_hz[0]:.3f} / "
-                f"{ev.frequencies_hz[1]:.3f} Hz by a coarse window; measuring a fine one"
-            )
-            freqs = window(ev.center_hz, ev.split_hz, False)
-            swept2, vmodel2, ev2 = sweep(freqs, "verify-fine.nc", False)
-            windows.append(ev2)
-            if ev2.ok:
-                return Verification("verified", ev2.frequencies_hz, windows, swept2, vmodel2)
         say(
             "verification: the window around the predicted modes does not show both modes "
             f"({ev.failures()}); sweeping the whole band to locate them"
@@ -167,9 +167,51 @@ def verify(
         f"verification: modes located near {located[0]:.3f} / {located[1]:.3f} Hz; "
         "measuring a window around them"
     )
+    swept2, vmodel2, ev2 = narrow(window(ev.center_hz, ev.split_hz, False), "verify-2")
+    if ev2.ok:
+        return Verification("verified", ev2.frequencies_hz, windows, swept2, vmodel2)
+    return Verification("located", located, windows, swept, vmodel)
+    say(
+        f"verification: modes located near {located[0]:.3f} / {located[1]:.3f} Hz; "
+        "measuring a window around them"
+    )
     freqs = window(ev.center_hz, ev.split_hz, False)
     swept2, vmodel2, ev2 = sweep(freqs, "verify-2.nc", False)
     windows.append(ev2)
     if ev2.ok:
         return Verification("verified", ev2.frequencies_hz, windows, swept2, vmodel2)
     return Verification("located", located, windows, swept, vmodel)
+
+
+def _narrow(
+    freqs: np.ndarray,
+    stem: str,
+    sweep: Sweep,
+    window: Window,
+    say: Progress,
+    windows: list[WindowAssessment],
+) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
+    """A window; while it finds both modes too coarsely, a finer one around them.
+
+    The first fine window resolves the model's bandwidths; a second one (at most
+    :data:`MAX_FINE` in all), the narrowest bandwidth the first one's fit measured, when that
+    asks for more points (fitted bandwidths scatter, and near degenerate modes one of them
+    narrows). Every window's evidence is appended to ``windows``.
+    """
+    swept, vmodel, ev = sweep(freqs, f"{stem}.nc", False)
+    windows.append(ev)
+    for k in range(MAX_FINE):
+        if ev.ok or not ev.too_coarse():
+            break
+        finer = window(ev.center_hz, ev.split_hz, False, ev.bandwidth_hz if k else None)
+        if k and finer.size <= freqs.size:  # no finer than the last: it would fail alike
+            break
+        say(
+            f"verification: modes found near {ev.frequencies_hz[0]:.3f} / "
+            f"{ev.frequencies_hz[1]:.3f} Hz by a coarse window; measuring a fine one"
+        )
+        freqs = finer
+        name = f"{stem}-fine.nc" if k == 0 else f"{stem}-fine{k + 1}.nc"
+        swept, vmodel, ev = sweep(freqs, name, False)
+        windows.append(ev)
+    return swept, vmodel, ev

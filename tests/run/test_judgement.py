@@ -31,16 +31,21 @@ ACCEPTANCE = 0.002
 
 def test_a_split_biased_by_the_wrong_structure_is_not_converged(tmp_path: Path) -> None:
     """Random gyro 108 (18.4 kHz, bandwidths 0.55 and 2.6 Hz) has input dynamics; fitted with
-    ``act``, its last window measures about 2 mHz while the true split is about 10 mHz, and the
+    ``act``, its last window measures 2-3 mHz while the true split is about 10 mHz, and the
     split's 95 % upper bound (the noise's) does not reach the truth: the structure's bias is
-    beyond it. The twin structure ``sen`` fits that window many times better (16 measured,
-    limit 4) and measures the split near the truth, so the run does not claim convergence."""
+    beyond it. The twin structure ``sen`` fits that window many times better (16-60 measured,
+    limit 4) and measures the split near the truth, so the run does not claim convergence. The
+    acceptance is 3 mHz so that every other goal is met and the twin's is the one that holds."""
     device = get_registry().device("random-gyro", seed=108)
-    config = degenerate_config(device, {"seed": 108}, iterations=3, model={"structure": "act"})
+    acceptance = 0.003
+    config = degenerate_config(
+        device, {"seed": 108}, iterations=3, acceptance_hz=acceptance, model={"structure": "act"}
+    )
     result = tune(config, tmp_path / "run", device=device, plots=False)
     f = device.true_modal_frequencies_hz(result.bias)
     true_split = float(f[1] - f[0])
-    assert true_split > RESOLVE_FACTOR * ACCEPTANCE  # the case this test is about
+    assert true_split > RESOLVE_FACTOR * acceptance  # the case this test is about
+    assert all(g["met"] for g in result.goals if not g["name"].startswith("split by the sen"))
     assert not result.converged
     twin = [g for g in result.goals if g["name"].startswith("split by the sen structure")]
     assert twin and not twin[0]["met"]
