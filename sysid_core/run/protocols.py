@@ -43,7 +43,7 @@ from sysid_core.run.lean import (
 from sysid_core.run.passes import repeat_window
 from sysid_core.run.previous import PreviousModel
 from sysid_core.run.sweeps import SweepPlan
-from sysid_core.run.verification import Verification, Window, verify
+from sysid_core.run.verification import COARSE_ENOUGH, Verification, Window, verify
 from sysid_core.run.zoom import zoom_grid
 from sysid_core.tuning.criteria import ConfidenceRegion, TuningResult
 
@@ -94,15 +94,18 @@ class Protocol(ABC):
         return None
 
     def sweep(
-        self, bias: np.ndarray, freqs: np.ndarray, path: Path, band: bool
+        self, bias: np.ndarray, freqs: np.ndarray, path: Path, band: bool, enough: float = np.inf
     ) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
         """One sweep at ``bias``, its own model and the evidence that it shows both modes.
 
         A narrow window that shows both modes but whose noise hides the split is measured again
         and averaged (:mod:`sysid_core.run.passes`); every pass is saved (``-pass2.nc``, ...).
+        A window too coarse but with a split over ``enough`` (Hz) stands
+        (:meth:`~sysid_core.run.evidence.WindowAssessment.enough`).
         """
         sweep = self.ctx.bench.measure(bias, freqs, path)
         model, evidence = self.ctx.fitter.window(sweep, band)
+        evidence = evidence.enough(enough)
         if band or not evidence.ok:
             return sweep, model, evidence
         ctx = self.ctx
@@ -118,10 +121,12 @@ class Protocol(ABC):
         plan: SweepPlan,
         lean: Window | None = None,
     ) -> Verification:
+        enough = COARSE_ENOUGH * self.ctx.config.tuning.acceptance_hz
+
         def sweep(
             freqs: np.ndarray, name: str, band: bool
         ) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
-            return self.sweep(bias, freqs, folder / name, band)
+            return self.sweep(bias, freqs, folder / name, band, enough)
 
         modes = model.modal(bias[self.ctx.space.index])
         return verify(modes, predicted, plan, sweep, self.ctx.say, lean=lean)
@@ -217,9 +222,7 @@ class LeanProtocol(Protocol):
         """Every sweep so far, if the run fits only the sweeps near ``bias`` (and there are more).
 
         A local fit that finds the goal unreachable extrapolates from a few tenths of a volt;
-        the sweeps of the whole run may span the answer (random gyro 119 at 60 dB: stuck at
-        B2 = 10 V by local fits, 5 Hz off, while the fit of all its sweeps answered 0.4 V from
-        the true degenerate bias).
+        the sweeps of the whole run may span the answer (random gyro 119 at 60 dB).
         """
         if not self.local or self.previous is not None:
             return None
@@ -296,10 +299,10 @@ class LeanProtocol(Protocol):
         return ds, (ds, model, [])
 
     def sweep(
-        self, bias: np.ndarray, freqs: np.ndarray, path: Path, band: bool
+        self, bias: np.ndarray, freqs: np.ndarray, path: Path, band: bool, enough: float = np.inf
     ) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
         """One sweep at ``bias`` as :meth:`Protocol.sweep`, kept with the modes it shows."""
-        found = super().sweep(bias, freqs, path, band)
+        found = super().sweep(bias, freqs, path, band, enough)
         self.known.add(found[0], found[2])
         return found
 
