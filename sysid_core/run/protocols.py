@@ -27,6 +27,7 @@ from sysid_core.errors import ConfigError
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.benchtime import settle as settle_s
 from sysid_core.run.context import RunContext
+from sysid_core.run.contraction import too_slow
 from sysid_core.run.evidence import WindowAssessment
 from sysid_core.run.knowledge import Knowledge
 from sysid_core.run.lean import (
@@ -79,17 +80,12 @@ class Protocol(ABC):
         return None
 
     def learned(
-        self,
-        moved: bool,
-        bias: np.ndarray,
-        verification: Verification,
-        region: ConfidenceRegion | None,
+        self, moved: bool, bias: np.ndarray, ver: Verification, region: ConfidenceRegion | None
     ) -> None:
-        """What the iteration ended with, for the protocol to keep or not.
+        """Keep what the iteration ended with (the lean protocol does; the full one, nothing).
 
-        A move to the best reachable bias, the bias verified, its verification and the answer's
-        confidence region (the lean protocol keeps them; the full protocol measures afresh and
-        keeps nothing).
+        A move to the best reachable bias, the bias verified, its verification, the answer's
+        confidence region.
         """
         return None
 
@@ -160,25 +156,23 @@ class FullProtocol(Protocol):
 class LeanProtocol(Protocol):
     """Points where the modes are, every sweep kept (see the module).
 
-    Iteration 1 measures the design of eq. (18) where the modes should be. Later ones fit
-    every sweep so far while the last verification agrees with the model: its split inside the
-    predicted 95 % range, and the model of all sweeps reproducing the verified modes
-    (:func:`~sysid_core.run.lean.explained_gap`). Once it does not (a stiffness law that holds
-    only locally), or after a move to the best reachable bias, the run fits the sweeps near the
-    bias from then on, measuring the local design wherever they do not meet the rank condition.
+    Later iterations fit every sweep while the last verification agrees with the model
+    (:meth:`_prediction_missed`); after that, or a move to the best reachable bias, the sweeps
+    near the bias, measuring the local design wherever they do not meet the rank condition.
     """
 
     def __init__(self, ctx: RunContext, prior: FittedModel | None = None) -> None:
         super().__init__(ctx)
         #: A previous model of the gyro (``--from-model``): while its answers contract the
         #: split, it is anchored on the latest sweeps instead of measuring designs.
-        self.previous = None if prior is None else PreviousModel(prior)
+        self.previous = PreviousModel.given(prior, ctx.config.tuning)
         self.known = Knowledge(ctx.space.tuned, ctx.space.structure_potential)
         self.locate_plan = locate_plan(ctx.plan, ctx.config.experiment.locate_points)
         self.local = False
         self.moved = False
         self.last_verified: tuple[np.ndarray, np.ndarray] | None = None
         self.last_region: ConfidenceRegion | None = None
+        self.splits: list[float] = []  # every verified split, in order
 
     def data(
         self, it: int, bias: np.ndarray, folder: Path, center_hz: float | None, split_hz: float
@@ -199,7 +193,7 @@ class LeanProtocol(Protocol):
                 "design there"
             )
         elif it > 1 and not self.local:
-            why, prefit = self._prediction_missed()
+            why, prefit = self._prediction_missed(it)
             if why is None:
                 ctx.say(f"iteration {it}: fitting all {len(self.known)} sweeps so far")
                 return (prefit[0], prefit) if prefit is not None else (self.known.union(), None)
@@ -262,19 +256,16 @@ class LeanProtocol(Protocol):
         return self._verify_with(bias, predicted, model, folder, self.locate_plan, window)
 
     def learned(
-        self,
-        moved: bool,
-        bias: np.ndarray,
-        verification: Verification,
-        region: ConfidenceRegion | None,
+        self, moved: bool, bias: np.ndarray, ver: Verification, region: ConfidenceRegion | None
     ) -> None:
         """Keep whether the run moved, and the verified bias, modes and region if verified."""
         self.moved = moved
-        if verification.verified and verification.frequencies_hz is not None:
-            self.last_verified = (bias.copy(), np.asarray(verification.frequencies_hz, dtype=float))
+        if ver.verified and ver.frequencies_hz is not None:
+            self.last_verified = (bias.copy(), np.asarray(ver.frequencies_hz, dtype=float))
+            self.splits.append(float(ver.split_hz or 0.0))
             self.last_region = region
         if self.previous is not None:
-            why = self.previous.judge(verification)
+            why = self.previous.judge(ver)
             if why is not None:
                 self.ctx.say(f"{why}; measuring the local design from now on")
                 self.previous, self.local = None, True
@@ -306,8 +297,12 @@ class LeanProtocol(Protocol):
         self.known.add(found[0], found[2])
         return found
 
-    def _prediction_missed(self) -> tuple[str | None, Prefit | None]:
+    def _prediction_missed(self, it: int) -> tuple[str | None, Prefit | None]:
         """Why the last prediction does not stand (the law holds only locally), or None.
+
+        It does not when the verified split is outside its predicted 95 % range, falls too
+        slowly (:mod:`sysid_core.run.contraction`), or the model of all sweeps does not
+        reproduce the verified modes (:func:`~sysid_core.run.lean.explained_gap`).
 
         With None comes the fit of all sweeps that judged it (the iteration's fit, when the union
         stands).
@@ -323,6 +318,10 @@ class LeanProtocol(Protocol):
                 f"the verified split {split * 1e3:.3g} mHz is outside the predicted 95 % range "
                 f"{lo * 1e3:.3g}-{hi * 1e3:.3g} mHz"
             ), None
+        tuning, last = self.ctx.config.tuning, self.splits[-2] if len(self.splits) > 1 else None
+        slow = too_slow(last, split, tuning.max_iterations - it + 1, tuning.acceptance_hz)
+        if slow is not None:
+            return slow, None
         union = self.known.union()
         model, notes = self.ctx.fitter.fit(union)
         gap = explained_gap(model.modal(vb[self.ctx.space.index]).frequencies_hz, vf)
@@ -332,15 +331,11 @@ class LeanProtocol(Protocol):
         return f"a model of all {n} sweeps misses the verified modes by {gap * 1e3:.3g} mHz", None
 
     def _learn(self, bias: np.ndarray, path: Path, first: np.ndarray | None = None) -> None:
-        """Measure one identification experiment where its modes should be.
+        """Measure one identification experiment where its modes should be (``first``: here).
 
-        The whole band if nothing is known; a scout window if the bias steps an electrode not
-        varied before; else a mode grid around the modes predicted from every sweep so far
-        (:mod:`sysid_core.run.lean`); ``first`` overrides that choice. A sweep that does not
-        show both modes is followed, at the same bias, by the locating band sweep, one four
-        times as dense, then the band at ``resolution_hz``, until one shows them (or none is
-        left); the first whole-band sweep that fails is followed at once by windows around the
-        modes it fitted (:func:`~sysid_core.run.zoom.zoom_grid`).
+        The band, a scout or a mode grid (:mod:`sysid_core.run.lean`); one that does not show
+        both modes is followed by windows around the modes it fitted (once), the locating band,
+        one four times as dense and the band at ``resolution_hz`` (:mod:`sysid_core.run.zoom`).
         """
         ctx = self.ctx
         guess, scout = self.known.guess(bias, ctx.fitter.structure, ctx.fitter.model)
