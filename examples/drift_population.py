@@ -9,7 +9,8 @@ matches its dynamics (``act`` or ``sen``), from 0 V to degenerate modes with B1 
 seed, 0.5 K/√h walk, 15 mV/h charging, 0.3 % / 0.1° analyzer wander, 60 dB SNR), ``good``
 (0.2 K/h, 0.05 K/√h) or ``quiet`` (a clock without drift, 60 dB SNR). The judge is the gyro's
 true split at the end of the run, which the run never sees. One JSON line per gyro goes to
-``<out>/runs.jsonl``, then the table row.
+``<out>/runs.jsonl``, then the table row. ``--experiment '{"locate_points": 31}'`` adds
+``[experiment]`` keys to every run.
 """
 
 from __future__ import annotations
@@ -56,6 +57,7 @@ def one(
     iterations: int = 4,
     tones: int = 1,
     max_passes: int | None = None,
+    experiment: dict | None = None,
 ) -> dict:
     """Tune gyro ``seed``; its record (true split at the end, claim, points, bench time)."""
     sign = 1.0 if seed % 2 else -1.0
@@ -75,7 +77,10 @@ def one(
             "acceptance_hz": ACCEPTANCE,
             "max_iterations": iterations,
         },
-        "experiment": {} if max_passes is None else {"max_passes": max_passes},
+        "experiment": {
+            **(experiment or {}),
+            **({} if max_passes is None else {"max_passes": max_passes}),
+        },
     }
     folder = out / f"gyro{seed}"
     shutil.rmtree(folder, ignore_errors=True)
@@ -124,6 +129,9 @@ def main() -> None:
     parser.add_argument(
         "--max-passes", type=int, default=None, help="[experiment] max_passes (its default)"
     )
+    parser.add_argument(
+        "--experiment", type=json.loads, default=None, help="more [experiment] keys, as JSON"
+    )
     parser.add_argument("--out", type=Path, default=Path("runs/drift-population"))
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
@@ -139,6 +147,7 @@ def main() -> None:
                     args.iterations,
                     args.tones,
                     args.max_passes,
+                    args.experiment,
                 )
             )
             log.write(json.dumps(records[-1]) + "\n")
