@@ -115,6 +115,8 @@ class WindowAssessment:
     #: Each mode's own peak is at least :data:`MIN_CONTRIBUTION` of the data's (the first half
     #: of ``observed``).
     seen: bool = True
+    #: Too coarse to resolve the modes, but it stands: its split is far over (:meth:`enough`).
+    coarse: bool = False
 
     @property
     def ok(self) -> bool:
@@ -137,7 +139,7 @@ class WindowAssessment:
             f"{split_hz * 1e3:.4g} mHz, which a finer window would not change"
         )
         checks = [Check(c.name, True, why) if c is failed[0] else c for c in self.checks]
-        return replace(self, checks=checks)
+        return replace(self, checks=checks, coarse=True)
 
     @property
     def split_hz(self) -> float:

@@ -92,7 +92,8 @@ class Verification:
         f, split = self.frequencies_hz, self.split_hz
         if self.status == "verified":
             assert split is not None  # "verified" and "located" always come with frequencies
-            return f"measured split {split * 1e3:.3g} mHz at {self.frequency_hz:.3f} Hz"
+            coarse = " by a coarse window (far over)" if self.windows[-1].coarse else ""
+            return f"measured split {split * 1e3:.3g} mHz at {self.frequency_hz:.3f} Hz{coarse}"
         if self.status == "located":
             assert f is not None
             return (

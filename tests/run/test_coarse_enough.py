@@ -46,6 +46,7 @@ def test_a_coarse_window_measures_a_far_split_and_stands(dv: float, seed: int) -
     stands = coarse.enough(COARSE_ENOUGH * acceptance)
     assert stands.ok
     assert "it stands" in next(c.detail for c in stands.checks if c.name == "resolved")
+    assert stands.coarse and not coarse.coarse
     assert not coarse.ok  # the original is not changed
     # a split under the limit does not stand: the run measures its fine window, as before
     assert not coarse.enough(2 * true).ok
