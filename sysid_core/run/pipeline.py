@@ -48,14 +48,14 @@ from sysid_core.run.benchtime import dwell, settle, tones
 from sysid_core.run.components import build_components
 from sysid_core.run.config import PipelineConfig
 from sysid_core.run.fitter import Fitter
-from sysid_core.run.judgement import aim_fraction, honest_goals, twin_goal
+from sysid_core.run.judgement import aim_fraction, verdict
 from sysid_core.run.plots import PLOT_FORMATS, plot_bias_path, plot_iteration
 from sysid_core.run.protocols import RunContext, make_protocol
 from sysid_core.run.summary import IterationRecord, RunSummary, summarize
 from sysid_core.run.sweeps import SweepPlan
 from sysid_core.run.tracking import NEAR_ACCEPTANCES, Tracker
 from sysid_core.run.verification import Verification
-from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion, Goal
+from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion
 
 __all__ = ["TuningRun"]
 
@@ -224,16 +224,11 @@ class TuningRun:
             ver.model.save(folder / "verify-model.nc")
             if self.tracker is not None:
                 self.tracker.learned(ver)
-            goals: list[Goal] = (
-                self.criterion.goals(ver.frequencies_hz, cfg.acceptance_hz)
-                + honest_goals(ver, now, cfg.acceptance_hz, aim)
-                if ver.verified and ver.frequencies_hz is not None
-                else []
+            goals, converged, stop = verdict(
+                ver, now, self.criterion, self.fitter, cfg.acceptance_hz, aim
             )
-            converged = ver.verified and all(g.met for g in goals)
-            if converged and (twin := twin_goal(ver, self.fitter, cfg.acceptance_hz)):
-                goals.append(twin)
-                converged = twin.met
+            if stop is not None:
+                self.notes.append(f"iteration {it}: {stop}")
             bias = step.bias
             path.append(bias.tolist())
             history.append(IterationRecord.of(it, ds, model, step.result, bias, ver, goals))
@@ -261,7 +256,9 @@ class TuningRun:
             write_json(self.out / "summary.json", summary.as_dict())
             self.say(f"iteration {it}: {ver.describe()} ({fit_time:.2f} s to identify)")
             self._plot(it, ds, model, ver, step, folder, path, history, regions)
-            if converged:
+            if stop is not None:
+                self.say(f"iteration {it}: {stop}")
+            if converged or stop is not None:
                 break
             self.protocol.learned(step.moved, bias, ver, step.result.confidence)
             # The next identification starts from what was measured: around the modes if
