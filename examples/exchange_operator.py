@@ -18,9 +18,11 @@ S seconds after its last answer (default: run until Ctrl-C).
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import os
 import re
+import sys
 import time
 from pathlib import Path
 
@@ -60,6 +62,9 @@ def main(argv: list[str] | None = None) -> int:
         "--clock", action="store_true", help="a bench with a clock: answers carry time_s"
     )
     args = parser.parse_args(argv)
+    # a line at a time, also into a pipe or a log file: whoever watches sees each answer
+    if isinstance(sys.stdout, io.TextIOWrapper):
+        sys.stdout.reconfigure(line_buffering=True)
 
     folder = Path(args.dir)
     folder.mkdir(parents=True, exist_ok=True)

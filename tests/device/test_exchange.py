@@ -54,10 +54,19 @@ def exchange(folder: Path, **options: Any) -> dict[str, Any]:
 
 
 def operator(folder: Path, *args: str) -> subprocess.Popen[str]:
+    """The example operator on ``folder``, returned once it is answering.
+
+    Its first line says so: a run started earlier would wait for it, and a short ``wait_s``
+    would time out on a loaded machine while the operator imports its libraries.
+    """
     command = [sys.executable, str(OPERATOR), "--dir", str(folder), "--seed", "1", *args]
-    return subprocess.Popen(
+    proc = subprocess.Popen(
         command, env=environment(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
     )
+    assert proc.stdout is not None
+    first = proc.stdout.readline()
+    assert first.startswith("operator: answering"), first + proc.communicate(timeout=30)[0]
+    return proc
 
 
 def stop(proc: subprocess.Popen[str]) -> str:
