@@ -10,7 +10,7 @@ seed, 0.5 K/√h walk, 15 mV/h charging, 0.3 % / 0.1° analyzer wander, 60 dB SN
 (0.2 K/h, 0.05 K/√h) or ``quiet`` (a clock without drift, 60 dB SNR). The judge is the gyro's
 true split at the end of the run, which the run never sees. One JSON line per gyro goes to
 ``<out>/runs.jsonl``, then the table row. ``--experiment '{"locate_points": 31}'`` adds
-``[experiment]`` keys to every run.
+``[experiment]`` keys to every run; ``--noise 1e-4`` sets the device's noise (80 dB).
 """
 
 from __future__ import annotations
@@ -58,14 +58,16 @@ def one(
     tones: int = 1,
     max_passes: int | None = None,
     experiment: dict | None = None,
+    noise: float | None = None,
 ) -> dict:
     """Tune gyro ``seed``; its record (true split at the end, claim, points, bench time)."""
     sign = 1.0 if seed % 2 else -1.0
     table = {"clock": True, "seed": seed, "tones": tones, **BENCHES[bench]}
     table["temperature_ramp_k_per_h"] *= sign
     options: dict = {"seed": seed, "bench": table}
-    if NOISE[bench] is not None:
-        options["noise"] = NOISE[bench]
+    noise = NOISE[bench] if noise is None else noise
+    if noise is not None:
+        options["noise"] = noise
     device = get_registry().device("random-gyro", **options)
     config = {
         "device": {"name": "random-gyro", **{k: v for k, v in options.items() if k != "bench"}},
@@ -132,6 +134,12 @@ def main() -> None:
     parser.add_argument(
         "--experiment", type=json.loads, default=None, help="more [experiment] keys, as JSON"
     )
+    parser.add_argument(
+        "--noise",
+        type=float,
+        default=None,
+        help="the device's noise, relative to its peak (the bench's: 1e-3, 60 dB, in the lab)",
+    )
     parser.add_argument("--out", type=Path, default=Path("runs/drift-population"))
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
@@ -148,6 +156,7 @@ def main() -> None:
                     args.tones,
                     args.max_passes,
                     args.experiment,
+                    args.noise,
                 )
             )
             log.write(json.dumps(records[-1]) + "\n")
