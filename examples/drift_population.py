@@ -9,8 +9,9 @@ matches its dynamics (``act`` or ``sen``), from 0 V to degenerate modes with B1 
 seed, 0.5 K/√h walk, 15 mV/h charging, 0.3 % / 0.1° analyzer wander, 60 dB SNR), ``good``
 (0.2 K/h, 0.05 K/√h) or ``quiet`` (a clock without drift, 60 dB SNR). The judge is the gyro's
 true split at the end of the run, which the run never sees. One JSON line per gyro goes to
-``<out>/runs.jsonl``, then the table row. ``--experiment '{"locate_points": 31}'`` adds
-``[experiment]`` keys to every run; ``--noise 1e-4`` sets the device's noise (80 dB).
+``<out>/runs.jsonl``, then the table row. ``--experiment '{"locate_points": 21}'`` adds
+``[experiment]`` keys to every run; ``--noise 1e-4`` sets the device's noise (80 dB) and
+``--dac-bits 20`` its bias DAC (16 bits over ±10 V by default).
 """
 
 from __future__ import annotations
@@ -59,6 +60,7 @@ def one(
     max_passes: int | None = None,
     experiment: dict | None = None,
     noise: float | None = None,
+    dac_bits: int | None = None,
 ) -> dict:
     """Tune gyro ``seed``; its record (true split at the end, claim, points, bench time)."""
     sign = 1.0 if seed % 2 else -1.0
@@ -68,6 +70,8 @@ def one(
     noise = NOISE[bench] if noise is None else noise
     if noise is not None:
         options["noise"] = noise
+    if dac_bits is not None:
+        options["dac_bits"] = dac_bits
     device = get_registry().device("random-gyro", **options)
     config = {
         "device": {"name": "random-gyro", **{k: v for k, v in options.items() if k != "bench"}},
@@ -140,6 +144,9 @@ def main() -> None:
         default=None,
         help="the device's noise, relative to its peak (the bench's: 1e-3, 60 dB, in the lab)",
     )
+    parser.add_argument(
+        "--dac-bits", type=int, default=None, help="the bias DAC's bits over ±10 V (16; 0: exact)"
+    )
     parser.add_argument("--out", type=Path, default=Path("runs/drift-population"))
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
@@ -157,6 +164,7 @@ def main() -> None:
                     args.max_passes,
                     args.experiment,
                     args.noise,
+                    args.dac_bits,
                 )
             )
             log.write(json.dumps(records[-1]) + "\n")
