@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -53,6 +54,21 @@ def exchange(folder: Path, **options: Any) -> dict[str, Any]:
     return {"device": device, **TABLES}
 
 
+#: Every operator a test started: one still running when its test ends (a failed assertion
+#: before its ``stop``) is killed then, not left answering into a deleted folder.
+_SPAWNED: list[subprocess.Popen[str]] = []
+
+
+@pytest.fixture(autouse=True)
+def _no_operator_outlives_its_test() -> Iterator[None]:
+    yield
+    while _SPAWNED:
+        proc = _SPAWNED.pop()
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate(timeout=30)
+
+
 def operator(folder: Path, *args: str) -> subprocess.Popen[str]:
     """The example operator on ``folder``, returned once it is answering.
 
@@ -63,6 +79,7 @@ def operator(folder: Path, *args: str) -> subprocess.Popen[str]:
     proc = subprocess.Popen(
         command, env=environment(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
     )
+    _SPAWNED.append(proc)
     assert proc.stdout is not None
     first = proc.stdout.readline()
     assert first.startswith("operator: answering"), first + proc.communicate(timeout=30)[0]
