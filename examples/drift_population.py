@@ -11,7 +11,10 @@ seed, 0.5 K/√h walk, 15 mV/h charging, 0.3 % / 0.1° analyzer wander, 60 dB SN
 true split at the end of the run, which the run never sees. One JSON line per gyro goes to
 ``<out>/runs.jsonl``, then the table row. ``--experiment '{"locate_points": 21}'`` adds
 ``[experiment]`` keys to every run; ``--noise 1e-4`` sets the device's noise (80 dB) and
-``--dac-bits 20`` its bias DAC (16 bits over ±10 V by default).
+``--dac-bits 20`` its bias DAC (16 bits over ±10 V by default). ``--draw K`` (K ≥ 1) tunes the
+same gyros with another draw of the measurement noise and of the bench's drifts (the device's
+``noise_seed = K``, the bench's seed ``seed + 100000 K``): two draws of the same code differ by
+what a comparison of two codes must beat (docs/drift.md).
 """
 
 from __future__ import annotations
@@ -40,6 +43,7 @@ BENCHES = {
 }
 NOISE = {"lab": 1e-3, "good": None, "quiet": 1e-3}  # 60 dB SNR in the lab and the quiet bench
 ACCEPTANCE = 0.002
+DRAW_STRIDE = 100_000  # --draw K: the bench's seed is the gyro's plus K times this
 
 
 def seeds(text: str) -> list[int]:
@@ -61,10 +65,11 @@ def one(
     experiment: dict | None = None,
     noise: float | None = None,
     dac_bits: int | None = None,
+    draw: int = 0,
 ) -> dict:
     """Tune gyro ``seed``; its record (true split at the end, claim, points, bench time)."""
     sign = 1.0 if seed % 2 else -1.0
-    table = {"clock": True, "seed": seed, "tones": tones, **BENCHES[bench]}
+    table = {"clock": True, "seed": seed + DRAW_STRIDE * draw, "tones": tones, **BENCHES[bench]}
     table["temperature_ramp_k_per_h"] *= sign
     options: dict = {"seed": seed, "bench": table}
     noise = NOISE[bench] if noise is None else noise
@@ -72,6 +77,8 @@ def one(
         options["noise"] = noise
     if dac_bits is not None:
         options["dac_bits"] = dac_bits
+    if draw:
+        options["noise_seed"] = draw
     device = get_registry().device("random-gyro", **options)
     config = {
         "device": {"name": "random-gyro", **{k: v for k, v in options.items() if k != "bench"}},
@@ -147,8 +154,16 @@ def main() -> None:
     parser.add_argument(
         "--dac-bits", type=int, default=None, help="the bias DAC's bits over ±10 V (16; 0: exact)"
     )
+    parser.add_argument(
+        "--draw",
+        type=int,
+        default=0,
+        help="another draw of the noise and the drifts for the same gyros (0: the seeds' own)",
+    )
     parser.add_argument("--out", type=Path, default=Path("runs/drift-population"))
     args = parser.parse_args()
+    if args.draw < 0:
+        parser.error(f"--draw must be a non-negative integer, got {args.draw}")
     args.out.mkdir(parents=True, exist_ok=True)
     records = []
     with (args.out / "runs.jsonl").open("w") as log:
@@ -165,6 +180,7 @@ def main() -> None:
                     args.experiment,
                     args.noise,
                     args.dac_bits,
+                    args.draw,
                 )
             )
             log.write(json.dumps(records[-1]) + "\n")

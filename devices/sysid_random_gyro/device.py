@@ -24,7 +24,9 @@ class RandomGyro(ParametrizedGyro):
     The parameters come from ``np.random.default_rng([seed, 0])`` (see
     :func:`sysid_random_gyro.generator.draw_parameters` and ``docs/random-gyro.md``), the
     measurement noise from a separate stream, ``np.random.default_rng([seed, 1])``: drawing the
-    gyro does not depend on the noise, nor the noise on the options.
+    gyro does not depend on the noise, nor the noise on the options. ``noise_seed`` selects
+    another draw of the noise for the same gyro (``default_rng([seed, 2, noise_seed])``): the
+    spread of a population's result over draws is what a comparison of two codes must beat.
 
     What is drawn (ranges in :mod:`sysid_random_gyro.generator`):
 
@@ -60,6 +62,8 @@ class RandomGyro(ParametrizedGyro):
     ----------
     seed : int, default 0
         Non-negative: selects the gyro and the noise sequence.
+    noise_seed : int or None, default None
+        Non-negative: another noise sequence for the same gyro; ``None`` keeps the seed's.
     noise : float, default 1e-4
         Complex measurement noise per point, relative to the native resonant peak.
     dac_bits : int, default 16
@@ -95,6 +99,7 @@ class RandomGyro(ParametrizedGyro):
     parameters_class: ClassVar[type[RandomGyroParameters]] = RandomGyroParameters
     options: ClassVar[tuple[str, ...]] = (
         "seed",
+        "noise_seed",
         "noise",
         "dac_bits",
         "dynamics",
@@ -107,6 +112,7 @@ class RandomGyro(ParametrizedGyro):
         self,
         *,
         seed: int = 0,
+        noise_seed: int | None = None,
         noise: float = 1e-4,
         dac_bits: int = 16,
         dynamics: str = "random",
@@ -125,6 +131,7 @@ class RandomGyro(ParametrizedGyro):
                 f"option 'dynamics' of device {self.name!r} must be 'random', 'output' or "
                 f"'input', got {dynamics!r}"
             )
+        checked_noise_seed = as_seed(self.name, "noise_seed", noise_seed)
         as_fraction(self.name, "noise", noise)
         as_dac_bits(self.name, "dac_bits", dac_bits)
         as_bool(self.name, "extra_modes", extra_modes)
@@ -146,7 +153,12 @@ class RandomGyro(ParametrizedGyro):
         #: The model structure that matches the dynamics (``act`` or ``sen``).
         self.structure: str = STRUCTURES[params.dynamics]
         # The noise stream, separate from the parameters' stream default_rng([seed, 0]).
-        self._rng = np.random.default_rng([checked_seed, 1])
+        # Another draw has its own stream: numpy seeds [s, 1, 0] as [s, 1].
+        own = checked_noise_seed is None
+        stream = [checked_seed, 1] if own else [checked_seed, 2, checked_noise_seed]
+        self._rng = np.random.default_rng(stream)
+        #: The noise draw (None: the seed's own).
+        self.noise_seed: int | None = checked_noise_seed
         self._degenerate: np.ndarray | None = None
 
     @property

@@ -81,6 +81,31 @@ def test_noise_is_its_own_stream() -> None:
         assert device.noise_std == pytest.approx(1e-4 * device.peak_magnitude)
 
 
+@given(seed=st.integers(0, 10**6), draw=st.integers(0, 10**6))
+@settings(max_examples=20, deadline=None)
+def test_noise_seed_draws_other_noise_for_the_same_gyro(seed: int, draw: int) -> None:
+    """``noise_seed`` is the stream ``default_rng([seed, 2, noise_seed])``: the same gyro (its
+    noiseless response, its exact degenerate bias), other noise, and the same again for the same
+    draw."""
+    f = np.linspace(*draw_parameters(seed).band_hz, 9)
+    own, other, again = (
+        RandomGyro(seed=seed, **o) for o in ({}, {"noise_seed": draw}, {"noise_seed": draw})
+    )
+    assert own.params == other.params and other.noise_seed == draw and own.noise_seed is None
+    bias = [0.0] * len(own.electrodes)
+    np.testing.assert_array_equal(
+        own.noiseless_response(bias, f), other.noiseless_response(bias, f)
+    )
+    np.testing.assert_array_equal(own.true_degenerate_bias(), other.true_degenerate_bias())
+    first = other.measure(bias, f).values
+    noise = first - other.noiseless_response(bias, f)
+    rng = np.random.default_rng([seed, 2, draw])
+    z = rng.standard_normal(noise.shape) + 1j * rng.standard_normal(noise.shape)
+    np.testing.assert_allclose(noise, other.noise_std / np.sqrt(2) * z, rtol=1e-6, atol=0)
+    np.testing.assert_array_equal(again.measure(bias, f).values, first)  # the same draw again
+    assert not np.array_equal(own.measure(bias, f).values, first)  # the seed's own differs
+
+
 def test_dynamics_option_changes_nothing_else() -> None:
     for seed in range(20):
         drawn = DRAWS[seed]
@@ -296,6 +321,8 @@ def test_stiffness_follows_the_bias_law(
         ("seed", -1),
         ("seed", 1.5),
         ("seed", None),
+        ("noise_seed", -1),
+        ("noise_seed", 2.5),
         ("noise", -1e-4),
         ("dac_bits", 40),
         ("feedthrough", -0.01),
