@@ -13,7 +13,10 @@ model structure that matches its dynamics (``act`` or ``sen``, as in docs/random
 Degenerate modes with B1 and B2, acceptance 1 mHz, up to 4 iterations. With ``--from-model``,
 each run starts from the last model of a previous run on the same gyro (from 0 V, other noise and
 drift; its own time is not counted). ``--model`` and ``--experiment`` add a ``[model]`` or
-``[experiment]`` table given as JSON (``--model '{"stiffness": "linear"}'``).
+``[experiment]`` table given as JSON (``--model '{"stiffness": "linear"}'``). ``--draw K``
+(K ≥ 1) repeats the population with another draw of the noise and the drift: the same gyros
+and starts (the random gyro's ``noise_seed = K``; the cloverleaf's seed, which draws only its
+noise, and the bench's seed plus ``100000 K``).
 
 After every measurement a recorder reads the TRUE split at that bias on the clock (the run never
 sees it). The time to 1 mHz is the clock at the end of the first verification of an answer
@@ -39,6 +42,7 @@ from sysid_core.plugin.registry import get_registry
 GOOD_LAB = {"temperature_ramp_k_per_h": 0.2, "temperature_walk_k_per_sqrt_h": 0.05}
 ACCEPTANCE = 0.001
 TARGET_HZ = 0.001
+DRAW_STRIDE = 100_000  # --draw K: the bench's seed (and the cloverleaf's) plus K times this
 
 
 class Recorder:
@@ -89,16 +93,22 @@ def _config(
     }
 
 
-def _device(gyro: str, seed: int, tones: int, bench_seed: int) -> tuple[Any, dict]:
-    bench = {"clock": True, "seed": bench_seed, "tones": tones, **GOOD_LAB}
+def _device(gyro: str, seed: int, tones: int, bench_seed: int, draw: int = 0) -> tuple[Any, dict]:
+    bench = {"clock": True, "seed": bench_seed + DRAW_STRIDE * draw, "tones": tones, **GOOD_LAB}
     options: dict = {"seed": seed, "bench": bench}
     name = "cloverleaf" if gyro == "cloverleaf" else "random-gyro"
+    if draw and gyro == "cloverleaf":
+        options["seed"] = seed + DRAW_STRIDE * draw  # its seed draws the noise only
+    elif draw:
+        options["noise_seed"] = draw  # the same gyro, another noise
     return get_registry().device(name, **options), options
 
 
-def prior_model(gyro: str, seed: int, tones: int, out: Path, experiment: dict, model: dict) -> Path:
+def prior_model(
+    gyro: str, seed: int, tones: int, out: Path, experiment: dict, model: dict, draw: int = 0
+) -> Path:
     """A previous run on the same gyro (other noise, other drift, from 0 V): its last model."""
-    device, options = _device(gyro, seed, tones, seed + 1000)
+    device, options = _device(gyro, seed, tones, seed + 1000, draw)
     config = _config(gyro, device, options, experiment, [0.0] * len(device.electrodes), model)
     folder = out / f"prior{seed}"
     shutil.rmtree(folder, ignore_errors=True)
@@ -114,10 +124,11 @@ def one(
     experiment: dict,
     model: dict,
     from_model: bool = False,
+    draw: int = 0,
 ) -> dict:
     """Tune one gyro; its record."""
-    prior = prior_model(gyro, seed, tones, out, experiment, model) if from_model else None
-    device, options = _device(gyro, seed, tones, seed)
+    prior = prior_model(gyro, seed, tones, out, experiment, model, draw) if from_model else None
+    device, options = _device(gyro, seed, tones, seed, draw)
     if gyro == "cloverleaf":
         rng = np.random.default_rng(seed)
         start = [float(v) for v in np.round(rng.uniform(-9, 9, 2), 3)] + [0.0]
@@ -191,10 +202,18 @@ def main() -> None:
     parser.add_argument(
         "--from-model", action="store_true", help="start from a previous run's model of the gyro"
     )
+    parser.add_argument(
+        "--draw",
+        type=int,
+        default=0,
+        help="another draw of the noise and the drift for the same gyros and starts (0: their own)",
+    )
     parser.add_argument("--label", default=None)
     parser.add_argument("--out", type=Path, default=Path("runs/clock-population"))
     parser.add_argument("--table", nargs="+", type=Path, help="rows of earlier outputs")
     args = parser.parse_args()
+    if args.draw < 0:
+        parser.error(f"--draw must be a non-negative integer, got {args.draw}")
     if args.table:
         for folder in args.table:
             lines = (folder / "runs.jsonl").read_text().splitlines()
@@ -217,7 +236,16 @@ def main() -> None:
     with (args.out / "runs.jsonl").open("w") as log:
         for seed in which:
             records.append(
-                one(args.gyro, seed, args.tones, args.out, experiment, model, args.from_model)
+                one(
+                    args.gyro,
+                    seed,
+                    args.tones,
+                    args.out,
+                    experiment,
+                    model,
+                    args.from_model,
+                    args.draw,
+                )
             )
             log.write(json.dumps(records[-1]) + "\n")
             log.flush()
