@@ -74,6 +74,8 @@ class Tracker:
     splits: list[float] = field(default_factory=list)
     #: Each window's own single-bias model.
     models: list[FittedModel] = field(default_factory=list)
+    #: Each window stood too coarse to resolve its modes (its split far over the acceptance).
+    coarse: list[bool] = field(default_factory=list)
     #: The rates the last :meth:`now` found (common and split), or None.
     rates: OffsetDrift | None = None
 
@@ -84,6 +86,7 @@ class Tracker:
             self.windows.append(ver.sweep)
             self.splits.append(float(ver.split_hz))
             self.models.append(ver.model)
+            self.coarse.append(bool(ver.windows and ver.windows[-1].coarse))
 
     def stale(self, ds: xr.Dataset) -> xr.Dataset | None:
         """The latest window, to be measured again, or None.
@@ -122,18 +125,22 @@ class Tracker:
         path = folder / "window-again.nc"
         again, own, evidence = sweep(requested_bias(stale), freqs, path, False)
         if evidence.ok:
-            self.refreshed(again, evidence.split_hz, own)
+            self.refreshed(again, evidence.split_hz, own, coarse=evidence.coarse)
 
-    def refreshed(self, sweep: xr.Dataset, split_hz: float | None, model: FittedModel) -> None:
+    def refreshed(
+        self, sweep: xr.Dataset, split_hz: float | None, model: FittedModel, coarse: bool = False
+    ) -> None:
         """Keep ``sweep``, the latest window measured again, if it verified ``split_hz``.
 
-        ``model``: its own single-bias model.
+        ``model``: its own single-bias model; ``coarse``: the window stood too coarse to
+        resolve its modes.
         """
         t = _times(sweep)
         if split_hz is not None and t.size == sweep["frequency"].size:
             self.windows.append(sweep)
             self.splits.append(float(split_hz))
             self.models.append(model)
+            self.coarse.append(coarse)
 
     def anchoring(self) -> list[xr.Dataset]:
         """The latest window, and up to ``keep - 1`` earlier ones with a split under ``near_hz``.
@@ -168,12 +175,15 @@ class Tracker:
         stamps = _times(ds)
         at = max(found.t_ref, float(stamps.max()) if stamps.size else found.t_ref) + self.ahead_s()
         moved = found.model_at(model, at)
+        # a window that stood too coarse to resolve its modes does not give its own split: its
+        # fit may place a mode where none is (random gyro 119, a phantom 4.6 Hz from the one
+        # mode its window held)
         pairs = [
             (w, own)
-            for w, own in zip(self.windows, self.models, strict=True)
-            if any(w is c for c in chosen)
+            for w, own, rough in zip(self.windows, self.models, self.coarse, strict=True)
+            if any(w is c for c in chosen) and not rough
         ]
-        offset, shift_hz = windows_split(model, found, pairs)
+        offset, shift_hz = windows_split(model, found, pairs) if pairs else (np.zeros((2, 2)), 0.0)
         moved = dataclasses.replace(moved, K0=np.asarray(moved.K0) + offset)
         self.rates = seen = offset_drift(moved)
         split = (
