@@ -34,7 +34,14 @@ from sysid_core.run.evidence import WindowAssessment
 from sysid_core.run.verification import Verification
 from sysid_core.tuning.confidence import split_interval
 
-__all__ = ["NEAR_ACCEPTANCES", "SPLIT_SIGNIFICANCE", "Tracker", "windows_split"]
+__all__ = [
+    "NEAR_ACCEPTANCES",
+    "SAMPLED_WITHIN",
+    "SPLIT_SIGNIFICANCE",
+    "Tracker",
+    "blind",
+    "windows_split",
+]
 
 #: Measures, saves and judges a sweep: ``(bias, frequencies, path, band)`` to ``(sweep, its
 #: single-bias model, evidence)`` (the protocol's :meth:`~sysid_core.run.protocols.Protocol.sweep`).
@@ -74,8 +81,8 @@ class Tracker:
     splits: list[float] = field(default_factory=list)
     #: Each window's own single-bias model.
     models: list[FittedModel] = field(default_factory=list)
-    #: Each window stood too coarse to resolve its modes (its split far over the acceptance).
-    coarse: list[bool] = field(default_factory=list)
+    #: Each window's own fit has a mode that none of its points came near (:func:`blind`).
+    blind: list[bool] = field(default_factory=list)
     #: The rates the last :meth:`now` found (common and split), or None.
     rates: OffsetDrift | None = None
 
@@ -86,7 +93,7 @@ class Tracker:
             self.windows.append(ver.sweep)
             self.splits.append(float(ver.split_hz))
             self.models.append(ver.model)
-            self.coarse.append(bool(ver.windows and ver.windows[-1].coarse))
+            self.blind.append(bool(ver.windows) and blind(ver.sweep, ver.windows[-1]))
 
     def stale(self, ds: xr.Dataset) -> xr.Dataset | None:
         """The latest window, to be measured again, or None.
@@ -125,22 +132,22 @@ class Tracker:
         path = folder / "window-again.nc"
         again, own, evidence = sweep(requested_bias(stale), freqs, path, False)
         if evidence.ok:
-            self.refreshed(again, evidence.split_hz, own, coarse=evidence.coarse)
+            self.refreshed(again, evidence.split_hz, own, blind=blind(again, evidence))
 
     def refreshed(
-        self, sweep: xr.Dataset, split_hz: float | None, model: FittedModel, coarse: bool = False
+        self, sweep: xr.Dataset, split_hz: float | None, model: FittedModel, blind: bool = False
     ) -> None:
         """Keep ``sweep``, the latest window measured again, if it verified ``split_hz``.
 
-        ``model``: its own single-bias model; ``coarse``: the window stood too coarse to
-        resolve its modes.
+        ``model``: its own single-bias model; ``blind``: its fit has a mode that none of its
+        points came near (:func:`blind`).
         """
         t = _times(sweep)
         if split_hz is not None and t.size == sweep["frequency"].size:
             self.windows.append(sweep)
             self.splits.append(float(split_hz))
             self.models.append(model)
-            self.coarse.append(coarse)
+            self.blind.append(blind)
 
     def anchoring(self) -> list[xr.Dataset]:
         """The latest window, and up to ``keep - 1`` earlier ones with a split under ``near_hz``.
@@ -175,13 +182,12 @@ class Tracker:
         stamps = _times(ds)
         at = max(found.t_ref, float(stamps.max()) if stamps.size else found.t_ref) + self.ahead_s()
         moved = found.model_at(model, at)
-        # a window that stood too coarse to resolve its modes does not give its own split: its
-        # fit may place a mode where none is (random gyro 119, a phantom 4.6 Hz from the one
-        # mode its window held)
+        # a window whose fit has a mode none of its points came near does not give its own
+        # split: that mode may be a phantom (random gyro 119)
         pairs = [
             (w, own)
-            for w, own, rough in zip(self.windows, self.models, self.coarse, strict=True)
-            if any(w is c for c in chosen) and not rough
+            for w, own, unseen in zip(self.windows, self.models, self.blind, strict=True)
+            if any(w is c for c in chosen) and not unseen
         ]
         offset, shift_hz = windows_split(model, found, pairs) if pairs else (np.zeros((2, 2)), 0.0)
         moved = dataclasses.replace(moved, K0=np.asarray(moved.K0) + offset)
@@ -204,6 +210,31 @@ class Tracker:
             f"{at - found.t_ref:.0f} s ahead{rates}{own}"
         )
         return moved
+
+
+#: A fitted mode is measured by a window only if one of its points lies within this many of the
+#: mode's bandwidths (at 3, the mode's own response there is 16 % of its peak).
+SAMPLED_WITHIN = 3.0
+
+
+def blind(sweep: xr.Dataset, evidence: WindowAssessment) -> bool:
+    """Whether a fitted mode lies over :data:`SAMPLED_WITHIN` bandwidths from every point.
+
+    A window that stood too coarse (its split far over the acceptance) may have one of two
+    modes between its points: random gyro 119 (25.8 kHz, quiet bench, noise draw 1), whose first
+    answer's window held one of two modes 16 Hz apart with a step of 2.3-2.6 Hz; its fit added a
+    mode 4.6 Hz away, 6.7 of its bandwidths from the nearest point. A window that resolves its
+    modes has a point within half a bandwidth of each; on random gyro 523 (1.0 kHz) a window
+    that stood with a step of 0.09 Hz had a point within 1.7 bandwidths of each mode, and its
+    split (36 mHz) was right.
+    """
+    f = np.asarray(sweep["frequency"].values, dtype=float)
+    modes = np.asarray(evidence.frequencies_hz, dtype=float)
+    bw = np.asarray(evidence.bandwidth_hz, dtype=float)
+    if not f.size or modes.size != bw.size:
+        return False
+    near = np.min(np.abs(f[None, :] - modes[:, None]), axis=1)
+    return bool(np.any(near > SAMPLED_WITHIN * np.where(np.isfinite(bw), bw, np.inf)))
 
 
 #: The windows' own splits move the anchored model only when the move is over this many

@@ -81,12 +81,12 @@ def test_a_stale_window_is_measured_again_and_gives_the_rates(tmp_path: Path) ->
     assert anchored and "on 2 verified window(s)" in anchored[0]
 
 
-def test_a_window_too_coarse_for_its_modes_does_not_give_its_split(tmp_path: Path) -> None:
+def test_a_window_blind_to_one_of_its_modes_does_not_give_its_split(tmp_path: Path) -> None:
     """Random gyro 119 (25.8 kHz) on a quiet bench (a clock, 60 dB, noise draw 1): the first
     answer's window held one of two modes 16 Hz apart and stood coarse (its split far over the
-    acceptance), its fit adding a phantom mode 4.6 Hz away. When that window gave the tracked
-    model its own split, every later answer was pulled 11 Hz off (11.5 Hz at the end);
-    measured without it: 1.02 mHz true at the end, converged."""
+    acceptance), its fit adding a phantom mode 4.6 Hz away, 6.7 bandwidths from its nearest
+    point. When that window gave the tracked model its own split, every later answer was
+    pulled 11 Hz off (11.5 Hz at the end); measured without it: 1.02 mHz true at the end."""
     bench = {"clock": True, "seed": 119 + 100000, "temperature_ramp_k_per_h": 0.0}
     options = {"seed": 119, "noise": 1e-3, "noise_seed": 1}
     device = get_registry().device("random-gyro", **options, bench=bench)
@@ -97,6 +97,32 @@ def test_a_window_too_coarse_for_its_modes_does_not_give_its_split(tmp_path: Pat
     f = device.true_modal_frequencies_hz(result.bias)
     assert any("anchored on" in line for line in lines)
     assert float(f[1] - f[0]) < 2 * ACCEPTANCE
+
+
+def test_a_mode_that_no_point_came_near_is_blind() -> None:
+    """The windows of random gyros 119 and 523 that stood coarse: 119's fit put a mode of
+    bandwidth 0.12 Hz between points 2.6 Hz apart (blind); 523's modes, bandwidths 0.069 and
+    0.018 Hz, had points 0.09 Hz apart around them (not blind). A mode whose bandwidth the fit
+    could not tell is not called blind."""
+    from sysid_core.run.evidence import WindowAssessment
+    from sysid_core.run.tracking import SAMPLED_WITHIN, blind
+
+    def window(f: np.ndarray, modes: list[float], bw: list[float]) -> bool:
+        ev = WindowAssessment(
+            (f[0], f[-1]), float(np.diff(f).max()), False, np.array(modes), np.array(bw)
+        )
+        return blind(xr.Dataset(coords={"frequency": f}), ev)
+
+    coarse = 25844.245 + 2.6 * np.arange(7)
+    assert window(coarse, [25847.916, 25852.506], [0.123, 0.475])
+    assert not window(coarse, [25846.9, 25852.1], [0.123, 0.475])  # both near a point
+    assert not window(coarse, [25847.916, 25852.506], [np.inf, 0.475])
+    fine = 1024.45 + 0.09 * np.arange(67)
+    assert not window(fine, [1027.445, 1027.481], [0.069, 0.018])
+    # the limit is SAMPLED_WITHIN bandwidths from the nearest point
+    point = float(fine[33])
+    assert not window(fine, [point + 0.99 * SAMPLED_WITHIN * 0.01], [0.01])
+    assert window(fine, [point + 1.01 * SAMPLED_WITHIN * 0.01], [0.01])
 
 
 def _verification(split: float, t0: float) -> Verification:
