@@ -205,6 +205,16 @@ class Tracker:
         own = (
             "" if shift_hz == 0.0 else f"; the windows' own splits move it {shift_hz * 1e3:.3g} mHz"
         )
+        refused = sum(
+            1
+            for w, unseen in zip(self.windows, self.blind, strict=True)
+            if unseen and any(w is c for c in chosen)
+        )
+        if refused:
+            own += (
+                f"; {refused} window(s) give no split of their own (a fitted mode that none of "
+                "their points came near)"
+            )
         say(
             f"iteration {it}: the model anchored on {found.sweeps} verified window(s), "
             f"{at - found.t_ref:.0f} s ahead{rates}{own}"
