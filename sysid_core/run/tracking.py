@@ -132,14 +132,14 @@ class Tracker:
         path = folder / "window-again.nc"
         again, own, evidence = sweep(requested_bias(stale), freqs, path, False)
         if evidence.ok:
-            self.refreshed(again, evidence.split_hz, own, blind=blind(again, evidence))
+            self.refreshed(again, evidence.split_hz, own, unseen=blind(again, evidence))
 
     def refreshed(
-        self, sweep: xr.Dataset, split_hz: float | None, model: FittedModel, blind: bool = False
+        self, sweep: xr.Dataset, split_hz: float | None, model: FittedModel, unseen: bool = False
     ) -> None:
         """Keep ``sweep``, the latest window measured again, if it verified ``split_hz``.
 
-        ``model``: its own single-bias model; ``blind``: its fit has a mode that none of its
+        ``model``: its own single-bias model; ``unseen``: its fit has a mode that none of its
         points came near (:func:`blind`).
         """
         t = _times(sweep)
@@ -147,7 +147,7 @@ class Tracker:
             self.windows.append(sweep)
             self.splits.append(float(split_hz))
             self.models.append(model)
-            self.blind.append(blind)
+            self.blind.append(unseen)
 
     def anchoring(self) -> list[xr.Dataset]:
         """The latest window, and up to ``keep - 1`` earlier ones with a split under ``near_hz``.
@@ -184,11 +184,13 @@ class Tracker:
         moved = found.model_at(model, at)
         # a window whose fit has a mode none of its points came near does not give its own
         # split: that mode may be a phantom (random gyro 119)
-        pairs = [
-            (w, own)
+        anchoring = [
+            (w, own, unseen)
             for w, own, unseen in zip(self.windows, self.models, self.blind, strict=True)
-            if any(w is c for c in chosen) and not unseen
+            if any(w is c for c in chosen)
         ]
+        pairs = [(w, own) for w, own, unseen in anchoring if not unseen]
+        refused = len(anchoring) - len(pairs)
         offset, shift_hz = windows_split(model, found, pairs) if pairs else (np.zeros((2, 2)), 0.0)
         moved = dataclasses.replace(moved, K0=np.asarray(moved.K0) + offset)
         self.rates = seen = offset_drift(moved)
@@ -204,11 +206,6 @@ class Tracker:
         )
         own = (
             "" if shift_hz == 0.0 else f"; the windows' own splits move it {shift_hz * 1e3:.3g} mHz"
-        )
-        refused = sum(
-            1
-            for w, unseen in zip(self.windows, self.blind, strict=True)
-            if unseen and any(w is c for c in chosen)
         )
         if refused:
             own += (
