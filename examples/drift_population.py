@@ -11,7 +11,8 @@ seed, 0.5 K/√h walk, 15 mV/h charging, 0.3 % / 0.1° analyzer wander, 60 dB SN
 true split at the end of the run, which the run never sees. One JSON line per gyro goes to
 ``<out>/runs.jsonl``, then the table row. ``--experiment '{"locate_points": 21}'`` adds
 ``[experiment]`` keys to every run; ``--noise 1e-4`` sets the device's noise (80 dB) and
-``--dac-bits 20`` its bias DAC (16 bits over ±10 V by default). ``--draw K`` (K ≥ 1) tunes the
+``--dac-bits 20`` its bias DAC (16 bits over ±10 V by default); ``--electrodes 3`` tunes with
+B1, B2 and B3 (a gyro with two electrodes uses both). ``--draw K`` (K ≥ 1) tunes the
 same gyros with another draw of the measurement noise and of the bench's drifts (the device's
 ``noise_seed = K``, the bench's seed ``seed + 100000 K``): two draws of the same code differ by
 what a comparison of two codes must beat (docs/drift.md).
@@ -66,6 +67,7 @@ def one(
     noise: float | None = None,
     dac_bits: int | None = None,
     draw: int = 0,
+    electrodes: int = 2,
 ) -> dict:
     """Tune gyro ``seed``; its record (true split at the end, claim, points, bench time)."""
     sign = 1.0 if seed % 2 else -1.0
@@ -85,7 +87,7 @@ def one(
         "model": {"drift": drift, "structure": device.structure},
         "tuning": {
             "criterion": "degenerate",
-            "electrodes": ["B1", "B2"],
+            "electrodes": list(device.electrodes[: max(electrodes, 2)]),
             "start_bias": [0.0] * len(device.electrodes),
             "acceptance_hz": ACCEPTANCE,
             "max_iterations": iterations,
@@ -160,10 +162,20 @@ def main() -> None:
         default=0,
         help="another draw of the noise and the drifts for the same gyros (0: the seeds' own)",
     )
+    parser.add_argument(
+        "--electrodes",
+        type=int,
+        default=2,
+        help="tune with the first N electrodes (B1, B2, ...; a gyro with fewer uses all it has)",
+    )
     parser.add_argument("--out", type=Path, default=Path("runs/drift-population"))
     args = parser.parse_args()
     if args.draw < 0:
         parser.error(f"--draw must be a non-negative integer, got {args.draw}")
+    if args.electrodes < 2:
+        parser.error(
+            f"--electrodes must be at least 2 (degenerate modes need two), got {args.electrodes}"
+        )
     args.out.mkdir(parents=True, exist_ok=True)
     records = []
     with (args.out / "runs.jsonl").open("w") as log:
@@ -181,6 +193,7 @@ def main() -> None:
                     args.noise,
                     args.dac_bits,
                     args.draw,
+                    args.electrodes,
                 )
             )
             log.write(json.dumps(records[-1]) + "\n")
