@@ -13,7 +13,8 @@ model structure that matches its dynamics (``act`` or ``sen``, as in docs/random
 Degenerate modes with B1 and B2, acceptance 1 mHz, up to 4 iterations. With ``--from-model``,
 each run starts from the last model of a previous run on the same gyro (from 0 V, other noise and
 drift; its own time is not counted). ``--model`` and ``--experiment`` add a ``[model]`` or
-``[experiment]`` table given as JSON (``--model '{"stiffness": "linear"}'``). ``--draw K``
+``[experiment]`` table given as JSON (``--model '{"stiffness": "linear"}'``); ``--electrodes 3``
+tunes with B1, B2 and B3 (a gyro with two electrodes uses both). ``--draw K``
 (K ≥ 1) repeats the population with another draw of the noise and the drift: the same gyros
 and starts (the random gyro's ``noise_seed = K``; the cloverleaf's seed, which draws only its
 noise, and the bench's seed plus ``100000 K``).
@@ -73,11 +74,17 @@ def seeds(text: str) -> list[int]:
 
 
 def _config(
-    gyro: str, device: Any, options: dict, experiment: dict, start: list[float], model: dict
+    gyro: str,
+    device: Any,
+    options: dict,
+    experiment: dict,
+    start: list[float],
+    model: dict,
+    electrodes: int = 2,
 ) -> dict:
     tuning = {
         "criterion": "degenerate",
-        "electrodes": ["B1", "B2"],
+        "electrodes": list(device.electrodes[: max(electrodes, 2)]),
         "start_bias": start,
         "acceptance_hz": ACCEPTANCE,
         "max_iterations": 4,
@@ -105,11 +112,19 @@ def _device(gyro: str, seed: int, tones: int, bench_seed: int, draw: int = 0) ->
 
 
 def prior_model(
-    gyro: str, seed: int, tones: int, out: Path, experiment: dict, model: dict, draw: int = 0
+    gyro: str,
+    seed: int,
+    tones: int,
+    out: Path,
+    experiment: dict,
+    model: dict,
+    draw: int = 0,
+    electrodes: int = 2,
 ) -> Path:
     """A previous run on the same gyro (other noise, other drift, from 0 V): its last model."""
     device, options = _device(gyro, seed, tones, seed + 1000, draw)
-    config = _config(gyro, device, options, experiment, [0.0] * len(device.electrodes), model)
+    start = [0.0] * len(device.electrodes)
+    config = _config(gyro, device, options, experiment, start, model, electrodes)
     folder = out / f"prior{seed}"
     shutil.rmtree(folder, ignore_errors=True)
     result = tune(config, folder, plots=False, device=device)
@@ -125,9 +140,14 @@ def one(
     model: dict,
     from_model: bool = False,
     draw: int = 0,
+    electrodes: int = 2,
 ) -> dict:
     """Tune one gyro; its record."""
-    prior = prior_model(gyro, seed, tones, out, experiment, model, draw) if from_model else None
+    prior = (
+        prior_model(gyro, seed, tones, out, experiment, model, draw, electrodes)
+        if from_model
+        else None
+    )
     device, options = _device(gyro, seed, tones, seed, draw)
     if gyro == "cloverleaf":
         rng = np.random.default_rng(seed)
@@ -135,7 +155,7 @@ def one(
     else:
         start = [0.0] * len(device.electrodes)
     recorder = Recorder(device)
-    config = _config(gyro, device, options, experiment, start, model)
+    config = _config(gyro, device, options, experiment, start, model, electrodes)
     folder = out / f"run{seed}"
     shutil.rmtree(folder, ignore_errors=True)
     try:
@@ -208,12 +228,22 @@ def main() -> None:
         default=0,
         help="another draw of the noise and the drift for the same gyros and starts (0: their own)",
     )
+    parser.add_argument(
+        "--electrodes",
+        type=int,
+        default=2,
+        help="tune with the first N electrodes (B1, B2, ...; a gyro with fewer uses all it has)",
+    )
     parser.add_argument("--label", default=None)
     parser.add_argument("--out", type=Path, default=Path("runs/clock-population"))
     parser.add_argument("--table", nargs="+", type=Path, help="rows of earlier outputs")
     args = parser.parse_args()
     if args.draw < 0:
         parser.error(f"--draw must be a non-negative integer, got {args.draw}")
+    if args.electrodes < 2:
+        parser.error(
+            f"--electrodes must be at least 2 (degenerate modes need two), got {args.electrodes}"
+        )
     if args.table:
         for folder in args.table:
             lines = (folder / "runs.jsonl").read_text().splitlines()
@@ -245,6 +275,7 @@ def main() -> None:
                     model,
                     args.from_model,
                     args.draw,
+                    args.electrodes,
                 )
             )
             log.write(json.dumps(records[-1]) + "\n")
