@@ -70,7 +70,11 @@ def main() -> None:
     summary = []
     for text in args.seeds:
         floors = []
-        for seed in seeds(text):
+        try:
+            chosen = seeds(text)
+        except ValueError:
+            parser.error(f"--seeds takes ranges such as 101-124 or single seeds, got {text!r}")
+        for seed in chosen:
             device = registry.device("random-gyro", seed=seed, **options)
             if device.bias_resolution is None:
                 parser.error("the DAC applies every bias exactly (--dac-bits 0): no floor")

@@ -160,7 +160,13 @@ def main() -> None:
         "standard deviation (mHz) |"
     )
     print("|---|---|---|---|---|---|")
-    for seed in (int(s) for s in args.seeds.split(",")):
+    try:
+        chosen = [int(s) for s in args.seeds.split(",")]
+    except ValueError:
+        parser.error(
+            f"--seeds must be comma-separated integers such as 101,106, got {args.seeds!r}"
+        )
+    for seed in chosen:
         folder = args.runs / f"gyro{seed}"
         if not (folder / "summary.json").is_file():
             parser.error(f"{folder} holds no run: run examples/drift_population.py first")
