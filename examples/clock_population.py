@@ -31,6 +31,7 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -111,52 +112,47 @@ def _device(gyro: str, seed: int, tones: int, bench_seed: int, draw: int = 0) ->
     return get_registry().device(name, **options), options
 
 
-def prior_model(
-    gyro: str,
-    seed: int,
-    tones: int,
-    out: Path,
-    experiment: dict,
-    model: dict,
-    draw: int = 0,
-    electrodes: int = 2,
-) -> Path:
+@dataclass(frozen=True)
+class Population:
+    """What every run of one population shares (the command line's options)."""
+
+    gyro: str
+    tones: int
+    out: Path
+    experiment: dict = field(default_factory=dict)
+    model: dict = field(default_factory=dict)
+    draw: int = 0
+    electrodes: int = 2
+
+    def config(self, device: Any, options: dict, start: list[float]) -> dict:
+        """The run's configuration for ``device`` from ``start``."""
+        return _config(
+            self.gyro, device, options, self.experiment, start, self.model, self.electrodes
+        )
+
+
+def prior_model(pop: Population, seed: int) -> Path:
     """A previous run on the same gyro (other noise, other drift, from 0 V): its last model."""
-    device, options = _device(gyro, seed, tones, seed + 1000, draw)
-    start = [0.0] * len(device.electrodes)
-    config = _config(gyro, device, options, experiment, start, model, electrodes)
-    folder = out / f"prior{seed}"
+    device, options = _device(pop.gyro, seed, pop.tones, seed + 1000, pop.draw)
+    config = pop.config(device, options, [0.0] * len(device.electrodes))
+    folder = pop.out / f"prior{seed}"
     shutil.rmtree(folder, ignore_errors=True)
     result = tune(config, folder, plots=False, device=device)
     return folder / f"iter{result.iterations:02d}" / "model.nc"
 
 
-def one(
-    gyro: str,
-    seed: int,
-    tones: int,
-    out: Path,
-    experiment: dict,
-    model: dict,
-    from_model: bool = False,
-    draw: int = 0,
-    electrodes: int = 2,
-) -> dict:
+def one(pop: Population, seed: int, from_model: bool = False) -> dict:
     """Tune one gyro; its record."""
-    prior = (
-        prior_model(gyro, seed, tones, out, experiment, model, draw, electrodes)
-        if from_model
-        else None
-    )
-    device, options = _device(gyro, seed, tones, seed, draw)
-    if gyro == "cloverleaf":
+    prior = prior_model(pop, seed) if from_model else None
+    device, options = _device(pop.gyro, seed, pop.tones, seed, pop.draw)
+    if pop.gyro == "cloverleaf":
         rng = np.random.default_rng(seed)
         start = [float(v) for v in np.round(rng.uniform(-9, 9, 2), 3)] + [0.0]
     else:
         start = [0.0] * len(device.electrodes)
     recorder = Recorder(device)
-    config = _config(gyro, device, options, experiment, start, model, electrodes)
-    folder = out / f"run{seed}"
+    config = pop.config(device, options, start)
+    folder = pop.out / f"run{seed}"
     shutil.rmtree(folder, ignore_errors=True)
     try:
         result = tune(config, folder, plots=False, device=recorder, from_model=prior)
@@ -262,22 +258,11 @@ def main() -> None:
             parser.error(f"--{flag} must be a JSON object, got {getattr(args, flag)}")
     experiment, model = tables["experiment"], tables["model"]
     which = list(range(1, args.starts + 1)) if args.gyro == "cloverleaf" else seeds(args.seeds)
+    pop = Population(args.gyro, args.tones, args.out, experiment, model, args.draw, args.electrodes)
     records = []
     with (args.out / "runs.jsonl").open("w") as log:
         for seed in which:
-            records.append(
-                one(
-                    args.gyro,
-                    seed,
-                    args.tones,
-                    args.out,
-                    experiment,
-                    model,
-                    args.from_model,
-                    args.draw,
-                    args.electrodes,
-                )
-            )
+            records.append(one(pop, seed, args.from_model))
             log.write(json.dumps(records[-1]) + "\n")
             log.flush()
     label = args.label or (
