@@ -42,8 +42,8 @@ __all__ = [
     "check_fit",
     "fit_structure",
     "law_statistic",
-    "split_part",
     "model_from_problem",
+    "split_part",
     "unit_mass",
 ]
 
@@ -163,8 +163,7 @@ LAW_TEST_LEVEL = 0.99
 
 
 def split_part(mass: np.ndarray) -> np.ndarray:
-    """The linear map from a stiffness term's entries ``(11, 12, 22)`` to the part that splits
-    the modes.
+    """The map from a stiffness term's entries ``(11, 12, 22)`` to its part that splits modes.
 
     With ``N = M^{-1/2} L M^{-1/2}`` the term as the modes see it, the rows are
     ``(N11 − N22) / 2`` and ``N12``: the traceless part of ``N``, which moves the two modal

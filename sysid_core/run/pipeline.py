@@ -288,8 +288,8 @@ class TuningRun:
         if law is not None and not model.meta.get("from_model"):
             stat, limit = model.meta.get("law_statistic"), model.meta.get("law_threshold")
             test = (
-                f" (test of the L_p terms that split the modes {stat:.3g} {'>' if law == 'quadratic' else '<='} "
-                f"{limit:.3g})"
+                f" (test of the L_p terms that split the modes {stat:.3g} "
+                f"{'>' if law == 'quadratic' else '<='} {limit:.3g})"
                 if stat is not None and limit is not None
                 else f" ({model.meta.get('law_test')})"
             )

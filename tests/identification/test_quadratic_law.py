@@ -281,9 +281,7 @@ def test_a_drift_of_both_modes_is_not_a_quadratic_law() -> None:
 
 
 @settings(max_examples=50, deadline=None)
-@given(
-    st.floats(0.5, 2.0), st.floats(0.5, 2.0), st.floats(-0.4, 0.4), st.floats(-5.0, 5.0)
-)
+@given(st.floats(0.5, 2.0), st.floats(0.5, 2.0), st.floats(-0.4, 0.4), st.floats(-5.0, 5.0))
 def test_the_split_part_ignores_a_term_shaped_like_the_mass(
     m11: float, m22: float, corr: float, scale: float
 ) -> None:
