@@ -215,7 +215,7 @@ def _fit_auto_law(
     """``stiffness = "auto"``: the quadratic law where the data show it, else the linear one.
 
     With a design that identifies it (two-sided), the quadratic law is fitted and kept if the
-    Wald test of its terms (:func:`law_statistic`) rejects ``L_p = 0`` at
+    Wald test of its terms that split the modes (:func:`law_statistic`) rejects them being 0 at
     :data:`LAW_TEST_LEVEL`; otherwise (or without a covariance, or with a one-sided design) the
     linear law is fitted to the same data. ``model.meta["stiffness_law"]`` says which, with the
     statistic and the threshold.

@@ -216,7 +216,7 @@ class TuningRun:
             ds, model = self._identify(it, bias, folder, center, split)
             fit_time = time.perf_counter() - t0
             now = model if self.tracker is None else self._track(it, model, ds)
-            step = self._answer(it, now, bias, folder)
+            step = self._answer(it, now, bias, folder, least_measured(history))
             # the fit of every sweep, if the local one fell short
             now = step.model if step.model is not None else now
             regions.append(step.result.confidence)
@@ -313,8 +313,17 @@ class TuningRun:
             now.save(self.out / f"iter{it:02d}" / "model-now.nc")
         return now
 
-    def _answer(self, it: int, model: FittedModel, bias: np.ndarray, folder: Path) -> Answer:
+    def _answer(
+        self,
+        it: int,
+        model: FittedModel,
+        bias: np.ndarray,
+        folder: Path,
+        least: tuple[float, np.ndarray] | None = None,
+    ) -> Answer:
         """Step 3 at the current ``bias`` (:func:`sysid_core.run.answer.answer`).
+
+        ``least``: the least split a verification of the run measured, and its bias.
 
         The answer is written to ``tuning.json`` and said.
         """
@@ -341,6 +350,7 @@ class TuningRun:
             say=self.say,
             every_sweep=every_sweep,
             acceptance_hz=self.config.tuning.acceptance_hz,
+            least_measured=least,
         )
         result = step.result
         write_json(folder / "tuning.json", result.as_dict())
@@ -380,6 +390,18 @@ class TuningRun:
             acceptance_hz=self.config.tuning.acceptance_hz,
             regions=regions,
         )
+
+
+def least_measured(history: list[IterationRecord]) -> tuple[float, np.ndarray] | None:
+    """The least split a verified window of the run measured, with its bias (None before one)."""
+    found = [
+        (float(h.measured_split_hz), np.asarray(h.verified_bias, dtype=float))
+        for h in history
+        if h.verification == "verified"
+        and h.measured_split_hz is not None
+        and np.isfinite(h.measured_split_hz)
+    ]
+    return min(found, key=lambda pair: pair[0]) if found else None
 
 
 def check_prior(model: FittedModel, tuned: list[str]) -> None:

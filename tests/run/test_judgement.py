@@ -12,11 +12,12 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 import xarray as xr
-from truths import degenerate_config
+from truths import PAPER_BIASES, PAPER_FREQS, V_GYRO, cloverleaf_truth, degenerate_config, simulate
 
-from sysid_core import tune
+from sysid_core import fit, tune
 from sysid_core.errors import ConfigError
 from sysid_core.plugin.registry import get_registry
+from sysid_core.run.answer import best_effort
 from sysid_core.run.judgement import (
     DRIFTING_AIM,
     RESOLVE_FACTOR,
@@ -25,6 +26,7 @@ from sysid_core.run.judgement import (
     honest_goals,
 )
 from sysid_core.run.verification import Verification
+from sysid_core.tuning.criteria import BiasSpace
 
 ACCEPTANCE = 0.002
 
@@ -145,3 +147,52 @@ def test_an_aim_outside_0_1_is_refused_in_one_line(tmp_path: Path, aim: float) -
     with pytest.raises(ConfigError, match="aim") as err:
         tune(config, tmp_path / "run", plots=False)
     assert "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("last", [False, True])
+def test_a_measured_split_refutes_a_model_that_says_the_modes_cannot_meet(last: bool) -> None:
+    """A model found 56.9 mHz the best reachable split after a verification of the same run had
+    measured 3.7 mHz (random gyro 523 in the lab, eighth iteration): the data refute the
+    verdict, so the run goes back to that verification's bias, or at its last iteration stays
+    where it is, instead of ending with the error. Without such a measurement, or when the
+    measured split is over half the model's best, the verdict stands."""
+    from sysid_cloverleaf import CloverleafGyro
+
+    from sysid_core.errors import UnreachableTuningError
+
+    model = fit(simulate(cloverleaf_truth(), PAPER_BIASES, PAPER_FREQS))
+    start = np.array([1.0, 1.0, 0.0])
+    space = BiasSpace(["B1", "B2", "B3"], ["B1", "B2"], start, (-10.0, 10.0), V_GYRO)
+    device = SimpleNamespace(device=CloverleafGyro(seed=1))
+    exc = UnreachableTuningError("cannot be made degenerate", [9.0, 9.0, 0.0], 0.0569)
+    seen = (0.0037, np.array([2.05, 4.39, 0.0]))
+    lines: list[str] = []
+    result = best_effort(
+        exc,
+        "degenerate",
+        model,
+        space,
+        device,
+        8,
+        0.25,
+        last,
+        lines.append,
+        seen,  # type: ignore[arg-type]
+    )
+    np.testing.assert_allclose(result.bias, start if last else seen[1])
+    assert "refuted by this run's data" in lines[-1] and "3.7 mHz" in lines[-1]
+    assert "unreachable" in result.info
+    for least in (None, (0.04, seen[1])):
+        with pytest.raises(UnreachableTuningError):
+            best_effort(
+                exc,
+                "degenerate",
+                model,
+                space,
+                device,
+                8,
+                20.0,
+                True,
+                lines.append,
+                least,  # type: ignore[arg-type]
+            )
