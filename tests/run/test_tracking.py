@@ -137,7 +137,8 @@ def _verification(split: float, t0: float) -> Verification:
 
 def test_only_windows_near_degenerate_modes_anchor_beside_the_latest() -> None:
     """A far window (a split of 400 mHz) is at a bias where the law's error would be taken for
-    a drift: it does not anchor; the latest always does, and at most ``keep`` windows."""
+    a drift: it does not anchor; the latest always does, and at most ``keep`` windows. A
+    verification whose modes only a band sweep located drops them all."""
     tracker = Tracker(settle_s=10.0, near_hz=0.02, keep=3)
     for split, t0 in [(0.4, 0.0), (0.01, 100.0), (0.5, 200.0), (0.005, 300.0), (0.003, 400.0)]:
         tracker.learned(_verification(split, t0))
@@ -146,10 +147,18 @@ def test_only_windows_near_degenerate_modes_anchor_beside_the_latest() -> None:
     assert tracker.ahead_s() == pytest.approx(10.0 + 2.0)  # settle + half the last window
     tracker.learned(_verification(0.9, 500.0))  # the latest anchors even when far
     assert [float(w["time_s"].values.min()) for w in tracker.anchoring()] == [300.0, 400.0, 500.0]
-    not_verified = _verification(0.001, 600.0)
-    not_verified.status = "located"
-    tracker.learned(not_verified)
+    failed = _verification(0.001, 550.0)
+    failed.status = "failed"  # nothing seen: nothing learned
+    tracker.learned(failed)
     assert len(tracker.windows) == 6
+    # the anchored model placed a window where a band sweep did not find the modes: the
+    # windows it was anchored on are dropped, and the next verified window anchors alone
+    located = _verification(0.001, 600.0)
+    located.status = "located"
+    tracker.learned(located)
+    assert tracker.windows == [] and tracker.splits == [] and tracker.anchoring() == []
+    tracker.learned(_verification(0.004, 700.0))
+    assert [float(w["time_s"].values.min()) for w in tracker.anchoring()] == [700.0]
 
 
 def test_a_window_older_than_the_sweeps_after_it_is_stale() -> None:
