@@ -50,11 +50,12 @@ def run(
 
 
 def test_tracking_tunes_a_charging_gyro_that_the_average_model_cannot(tmp_path: Path) -> None:
-    """Measured: without tracking 5.6 mHz at the end (stuck at 5-6 mHz from the 4th
-    iteration on); with it, 1.5 mHz, converged at the 4th."""
+    """Measured: without tracking 3.5 mHz at the end (5.6 mHz, stuck at 5-6 mHz from the 4th
+    iteration on, before the stiffness law's test left out the common part); with it,
+    converged under the acceptance."""
     still, _, _ = run(tmp_path, "none")
     tracked, summary, lines = run(tmp_path, "track")
-    assert still > 2 * ACCEPTANCE
+    assert still > 1.5 * ACCEPTANCE
     assert tracked < ACCEPTANCE
     assert summary["converged"]
     # a tracked run aims at half the acceptance (judgement.DRIFTING_AIM)
