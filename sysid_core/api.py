@@ -250,7 +250,8 @@ def fit(
     stiffness : str, optional
         When ``structure`` is a name: the stiffness law in ``w``, ``"linear"`` (the paper's),
         ``"quadratic"`` (adds ``L_p w_p²``; needs a two-sided design) or ``"auto"`` (the
-        default: the quadratic law if a Wald test of its terms that split the modes rejects 0 at
+        default: the quadratic law if a Wald test of its terms (on data with time stamps, of
+        their part that splits the modes) rejects 0 at
         99 %, else the linear law on the same data, which a one-sided design always gets;
         ``model.meta["stiffness_law"]`` says which).
     drift : bool or str

@@ -29,6 +29,7 @@ from sysid_core.identification.drift import (
     has_time_stamps,
     offset_facts,
 )
+from sysid_core.identification.law import LAW_TEST_LEVEL, law_statistic, split_part
 from sysid_core.identification.objective import Objective, ObjectiveResult, Progress
 from sysid_core.identification.problem import FitProblem
 from sysid_core.model.fitted import DEFAULT_INPUTS, DEFAULT_OUTPUTS, FittedModel
@@ -158,52 +159,6 @@ def _fit_one(
     return model_from_problem(problem, result, solver=solver.name, fit_time_s=elapsed, **facts)
 
 
-#: Confidence level of the test that keeps the quadratic stiffness law (``stiffness = "auto"``).
-LAW_TEST_LEVEL = 0.99
-
-
-def split_part(mass: np.ndarray) -> np.ndarray:
-    """The map from a stiffness term's entries ``(11, 12, 22)`` to its part that splits modes.
-
-    With ``N = M^{-1/2} L M^{-1/2}`` the term as the modes see it, the rows are
-    ``(N11 − N22) / 2`` and ``N12``: the traceless part of ``N``, which moves the two modal
-    frequencies apart or turns their axes. The rest, ``tr N / 2``, moves both modes together,
-    as temperature does.
-    """
-    lam, vec = np.linalg.eigh(np.asarray(mass, dtype=float))
-    root = vec @ np.diag(1.0 / np.sqrt(lam)) @ vec.T
-    rows = []
-    for entry in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)):
-        term = np.array([[entry[0], entry[1]], [entry[1], entry[2]]])
-        n = root @ term @ root
-        rows.append([(n[0, 0] - n[1, 1]) / 2.0, n[0, 1]])
-    return np.array(rows).T
-
-
-def law_statistic(model: FittedModel) -> tuple[float, int] | None:
-    """Wald statistic and degrees of freedom of a least-squares fit's quadratic terms ``L_p``.
-
-    The statistic is ``d^T Cov(d)^+ d`` over the part of every ``L_p`` that splits the modes
-    (:func:`split_part`: two numbers per electrode); χ²-distributed when the law is linear. The
-    common part, which moves both modes together, is left out: a bench's temperature moves both
-    modes between the sweeps of a design, and a test of all three entries took that drift for
-    a quadratic law (the cloverleaf, whose law is ``v²``, on a good lab's bench: 15 of 24
-    starts). ``None`` without ``L_p`` or without a covariance (minimax).
-    """
-    if model.Lp is None or model.stiffness_factor is None or not len(model.electrodes):
-        return None
-    n_e = len(model.electrodes)
-    rows = model.stiffness_factor[-3 * n_e :]
-    part = np.kron(np.eye(n_e), split_part(model.M))
-    values = part @ np.concatenate([[lp[0, 0], lp[0, 1], lp[1, 1]] for lp in model.Lp])
-    factor = part @ rows
-    cov = factor @ factor.T
-    lam, vec = np.linalg.eigh(cov)
-    keep = lam > 1e-12 * max(float(lam.max()), 1e-300)
-    proj = vec[:, keep].T @ values
-    return float(np.sum(proj**2 / lam[keep])), int(keep.sum())
-
-
 def _fit_auto_law(
     dataset: xr.Dataset,
     structure: ModelStructure,
@@ -215,7 +170,8 @@ def _fit_auto_law(
     """``stiffness = "auto"``: the quadratic law where the data show it, else the linear one.
 
     With a design that identifies it (two-sided), the quadratic law is fitted and kept if the
-    Wald test of its terms that split the modes (:func:`law_statistic`) rejects them being 0 at
+    Wald test of its terms (:func:`law_statistic`; on data with time stamps, of their part that
+    splits the modes) rejects them being 0 at
     :data:`LAW_TEST_LEVEL`; otherwise (or without a covariance, or with a one-sided design) the
     linear law is fitted to the same data. ``model.meta["stiffness_law"]`` says which, with the
     statistic and the threshold.
@@ -237,11 +193,17 @@ def _fit_auto_law(
     quad = _fit_one(dataset, quadratic, objective, solver, progress, timing)
     if quad.meta.get("law_fallback"):
         return quad
-    found = law_statistic(quad)
+    # on a bench with a clock the part of L_p that moves both modes together holds the drift
+    split_only = has_time_stamps(dataset)
+    found = law_statistic(quad, split_only=split_only)
     if found is not None:
         stat, dof = found
         threshold = float(scipy.stats.chi2.ppf(LAW_TEST_LEVEL, dof))
-        facts: dict[str, object] = {"law_statistic": stat, "law_threshold": threshold}
+        facts: dict[str, object] = {
+            "law_statistic": stat,
+            "law_threshold": threshold,
+            "law_tested": "split" if split_only else "all",
+        }
         if stat > threshold:
             quad.meta.update(stiffness_law="quadratic", **facts)
             return quad

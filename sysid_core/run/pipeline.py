@@ -51,7 +51,7 @@ from sysid_core.run.fitter import Fitter
 from sysid_core.run.judgement import aim_fraction, verdict
 from sysid_core.run.plots import PLOT_FORMATS, plot_bias_path, plot_iteration
 from sysid_core.run.protocols import RunContext, make_protocol
-from sysid_core.run.summary import IterationRecord, RunSummary, summarize
+from sysid_core.run.summary import IterationRecord, Least, RunSummary, least_measured, summarize
 from sysid_core.run.sweeps import SweepPlan
 from sysid_core.run.tracking import NEAR_ACCEPTANCES, Tracker
 from sysid_core.run.verification import Verification
@@ -287,8 +287,9 @@ class TuningRun:
         law = model.meta.get("stiffness_law")
         if law is not None and not model.meta.get("from_model"):
             stat, limit = model.meta.get("law_statistic"), model.meta.get("law_threshold")
+            part = " that split the modes" if model.meta.get("law_tested") == "split" else ""
             test = (
-                f" (test of the L_p terms that split the modes {stat:.3g} "
+                f" (test of the L_p terms{part} {stat:.3g} "
                 f"{'>' if law == 'quadratic' else '<='} {limit:.3g})"
                 if stat is not None and limit is not None
                 else f" ({model.meta.get('law_test')})"
@@ -314,19 +315,9 @@ class TuningRun:
         return now
 
     def _answer(
-        self,
-        it: int,
-        model: FittedModel,
-        bias: np.ndarray,
-        folder: Path,
-        least: tuple[float, np.ndarray] | None = None,
+        self, it: int, model: FittedModel, bias: np.ndarray, folder: Path, least: Least
     ) -> Answer:
-        """Step 3 at the current ``bias`` (:func:`sysid_core.run.answer.answer`).
-
-        ``least``: the least split a verification of the run measured, and its bias.
-
-        The answer is written to ``tuning.json`` and said.
-        """
+        """Step 3 at ``bias``, told the least split verified so far (``least``); saved, said."""
         space = BiasSpace(
             self.electrodes,
             self.space.tuned,
@@ -390,18 +381,6 @@ class TuningRun:
             acceptance_hz=self.config.tuning.acceptance_hz,
             regions=regions,
         )
-
-
-def least_measured(history: list[IterationRecord]) -> tuple[float, np.ndarray] | None:
-    """The least split a verified window of the run measured, with its bias (None before one)."""
-    found = [
-        (float(h.measured_split_hz), np.asarray(h.verified_bias, dtype=float))
-        for h in history
-        if h.verification == "verified"
-        and h.measured_split_hz is not None
-        and np.isfinite(h.measured_split_hz)
-    ]
-    return min(found, key=lambda pair: pair[0]) if found else None
 
 
 def check_prior(model: FittedModel, tuned: list[str]) -> None:

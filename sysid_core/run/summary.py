@@ -23,7 +23,9 @@ __all__ = [
     "CONFIDENCE_KEYS",
     "DAC_LIMITS",
     "IterationRecord",
+    "Least",
     "RunSummary",
+    "least_measured",
     "status_line",
     "summarize",
 ]
@@ -306,3 +308,19 @@ def summarize(
         drift_common_hz_per_h=drift_hz_per_h,
         drift_split_hz_per_h=drift_split_hz_per_h,
     )
+
+
+#: The least split a verified window of a run measured (Hz) and its bias, or None.
+Least = tuple[float, np.ndarray] | None
+
+
+def least_measured(history: list[IterationRecord]) -> Least:
+    """The least split a verified window of the run measured, with its bias (None before one)."""
+    found = [
+        (float(h.measured_split_hz), np.asarray(h.verified_bias, dtype=float))
+        for h in history
+        if h.verification == "verified"
+        and h.measured_split_hz is not None
+        and np.isfinite(h.measured_split_hz)
+    ]
+    return min(found, key=lambda pair: pair[0]) if found else None

@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 from sysid_random_gyro import RandomGyro
 
 from sysid_core import errors, fit, load_model, tune
+from sysid_core.data.schema import make_dataset
 from sysid_core.data.validation import check_rank_condition
 from sysid_core.identification.fitting import split_part
 from sysid_core.model.fitted import FittedModel
@@ -269,15 +270,30 @@ def test_a_drift_of_both_modes_is_not_a_quadratic_law() -> None:
     """Both modes moving 2.2 mHz a sweep during a two-sided design (0.5 ppm at 4.4 kHz: a good
     lab's temperature over a design) leave a v² gyro's law linear. A test of every entry of
     ``L_p`` took that common move for a quadratic law: statistics of 3000-10000 against a 99 %
-    threshold of 16.8, every seed; the test of the part that splits the modes stays at the
-    noise's 0-4 against 13.3."""
+    threshold of 16.8, every seed; the test of the part that splits the modes, which data with
+    time stamps get, stays at the noise's 0-4 against 13.3."""
     design = design_experiments(np.array([4.0, -6.0]), [0, 1], 1.0, (-10.0, 10.0), True)
     laws = []
     for seed in range(10):
         warming = _Warming(cloverleaf_truth(), [0.0, 0.5, 1.0, 1.5, 2.0])
         ds = simulate(warming, design, PAPER_FREQS, noise_peak=1e-4, seed=seed)
-        laws.append(fit(ds, stiffness="auto").meta["stiffness_law"])
+        # a sweep every 3 minutes, a point every 1.5 s: data with time stamps
+        ds = make_dataset(
+            [ds["response"].values[k] for k in range(len(design))],
+            PAPER_FREQS,
+            design,
+            list(ds["electrode"].values),
+            V_GYRO,
+            times_s=[180.0 * k + 1.5 * np.arange(PAPER_FREQS.size) for k in range(len(design))],
+        )
+        model = fit(ds, stiffness="auto")
+        assert model.meta["law_tested"] == "split"
+        laws.append(model.meta["stiffness_law"])
     assert laws.count("quadratic") <= 1
+    # the same data without time stamps: every entry is tested, and the drift shows
+    frozen = simulate(_Warming(cloverleaf_truth(), [0.0, 0.5, 1.0, 1.5, 2.0]), design, PAPER_FREQS)
+    model = fit(frozen, stiffness="auto")
+    assert model.meta["law_tested"] == "all" and model.meta["stiffness_law"] == "quadratic"
 
 
 @settings(max_examples=50, deadline=None)
