@@ -71,9 +71,9 @@ MOVED: dict[str, str] = {
 #: Names that left an old module for another home than the module's own new one.
 _SPLIT: dict[tuple[str, str], str] = {
     ("fit", "check_fit"): "identification.fitting",
-    ("fit", "law_statistic"): "identification.fitting",
+    ("fit", "law_statistic"): "identification.law",
     ("fit", "RESONANCE_RATIO"): "identification.fitting",
-    ("fit", "LAW_TEST_LEVEL"): "identification.fitting",
+    ("fit", "LAW_TEST_LEVEL"): "identification.law",
     ("fit", "LAW_CONDITION_LIMIT"): "identification.fitting",
     ("problem", "sigma_max_2x2"): "conic.program",
     ("config", "DEFAULT_ORDER"): "model.structures",

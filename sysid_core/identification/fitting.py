@@ -29,7 +29,7 @@ from sysid_core.identification.drift import (
     has_time_stamps,
     offset_facts,
 )
-from sysid_core.identification.law import LAW_TEST_LEVEL, law_statistic, split_part
+from sysid_core.identification.law import LAW_TEST_LEVEL, law_statistic
 from sysid_core.identification.objective import Objective, ObjectiveResult, Progress
 from sysid_core.identification.problem import FitProblem
 from sysid_core.model.fitted import DEFAULT_INPUTS, DEFAULT_OUTPUTS, FittedModel
@@ -37,14 +37,11 @@ from sysid_core.model.structures import ModelStructure
 
 __all__ = [
     "LAW_CONDITION_LIMIT",
-    "LAW_TEST_LEVEL",
     "MASS_NORMALISE_TOL",
     "RESONANCE_RATIO",
     "check_fit",
     "fit_structure",
-    "law_statistic",
     "model_from_problem",
-    "split_part",
     "unit_mass",
 ]
 

@@ -19,7 +19,7 @@ from sysid_random_gyro import RandomGyro
 from sysid_core import errors, fit, load_model, tune
 from sysid_core.data.schema import make_dataset
 from sysid_core.data.validation import check_rank_condition
-from sysid_core.identification.fitting import split_part
+from sysid_core.identification.law import split_part
 from sysid_core.model.fitted import FittedModel
 from sysid_core.plugin.registry import get_registry
 from sysid_core.run.sweeps import design_experiments
