@@ -32,12 +32,15 @@ from sysid_core.tuning.criteria import (
 
 __all__ = [
     "REFUTES",
+    "WORSE",
+    "WORSE_ACCEPTANCES",
     "Answer",
     "answer",
     "apply_best_code",
     "best_effort",
     "dac_floor",
     "reach_with",
+    "worse_than_measured",
 ]
 
 #: The DAC's floor is said when its best code near an answer is predicted to leave at least this
@@ -47,6 +50,13 @@ DAC_FLOOR_SHARE = 0.5
 #: A verification that measured a split under this share of the best split a model can reach
 #: refutes the model's verdict "cannot be made degenerate" (:func:`best_effort`).
 REFUTES = 0.5
+
+#: An answer whose own model predicts at its DAC code more than this many times the least split
+#: a verification of the run measured (and more than :data:`WORSE_ACCEPTANCES` acceptances) is
+#: not applied: the run goes back to that verification's bias (:func:`worse_than_measured`).
+WORSE = 2.0
+#: ... and more than this many acceptances.
+WORSE_ACCEPTANCES = 10.0
 
 
 @dataclass(frozen=True)
@@ -123,6 +133,23 @@ def answer(
             )
             local = model
     step = _applied(result, local, model, space, device)
+    back = worse_than_measured(step.result, criterion.name, least_measured, acceptance_hz)
+    if back is not None:
+        measured, where = back
+        bias = check_bias(device.device, where)
+        say(
+            f"iteration {it}: the answer's own model predicts {step.result.split_hz * 1e3:.3g} "
+            f"mHz at its bias, where a verification of this run measured "
+            f"{measured * 1e3:.3g} mHz at [{', '.join(f'{b:.4f}' for b in where)}] V; going "
+            "back there and measuring the local design"
+        )
+        result = _result_at(bias, space, model, criterion.name)
+        result.info["worse_than_measured"] = {
+            "answer": [float(b) for b in step.bias],
+            "predicted_split_hz": float(step.result.split_hz),
+            "measured_split_hz": float(measured),
+        }
+        return Answer(result, bias, True, model)
     floor = dac_floor(step.result.info, acceptance_hz)
     if floor is not None and acceptance_hz is not None:
         say(
@@ -131,6 +158,30 @@ def answer(
             "DAC, another electrode or a wider acceptance would help"
         )
     return step
+
+
+def worse_than_measured(
+    result: TuningResult,
+    criterion_name: str,
+    least_measured: tuple[float, np.ndarray] | None,
+    acceptance_hz: float | None,
+) -> tuple[float, np.ndarray] | None:
+    """The least measured split and its bias if ``result`` is predicted worse, else None.
+
+    Degenerate modes only: an answer whose own model predicts, at the DAC code that will be
+    applied, a split over :data:`WORSE` times the least one a verification of the run measured
+    and over :data:`WORSE_ACCEPTANCES` acceptances is an extrapolation the model itself does not
+    believe (measured: random gyro 116 in the lab, whose anchored quadratic model sent its
+    seventh answer to B2 = -9.5 V, 4.7 V beyond any sweep, predicting 17.8 Hz at the code
+    after a verification had measured 9.7 mHz; the run ended 255 mHz apart).
+    """
+    if criterion_name != "degenerate" or least_measured is None or acceptance_hz is None:
+        return None
+    measured, where = least_measured
+    predicted = float(result.split_hz)
+    if predicted > max(WORSE * measured, WORSE_ACCEPTANCES * acceptance_hz):
+        return measured, np.asarray(where, dtype=float)
+    return None
 
 
 def dac_floor(info: Mapping[str, Any], acceptance_hz: float | None) -> float | None:
@@ -278,19 +329,28 @@ def _result_at(
     space: BiasSpace,
     model: FittedModel,
     criterion_name: str,
-    exc: UnreachableTuningError,
+    exc: UnreachableTuningError | None = None,
 ) -> TuningResult:
-    """The answer "go to ``bias``", with the model's modes there and the verdict it replaces."""
+    """The answer "go to ``bias``", with the model's modes there and the verdict it replaces.
+
+    Without ``exc`` (no verdict replaced) the criterion's value is the model's split there.
+    """
     w = squared_potentials(space.structure_potential, bias[space.index])
     f = frequencies_from_w(model, w)
+    split = float(f[1] - f[0])
+    if exc is None:
+        value, info = split, {}
+    else:
+        value = float(exc.best_value) if exc.best_value is not None else float("nan")
+        info = {"unreachable": str(exc)}
     return TuningResult(
         bias=bias,
         w=w,
         frequencies_hz=f,
-        split_hz=float(f[1] - f[0]),
+        split_hz=split,
         criterion=criterion_name,
-        value=float(exc.best_value) if exc.best_value is not None else float("nan"),
-        info={"unreachable": str(exc)},
+        value=value,
+        info=info,
     )
 
 

@@ -189,8 +189,8 @@ class LeanProtocol(Protocol):
         if it > 1 and self.moved:
             self.local = True
             ctx.say(
-                f"iteration {it}: the run moved to the best reachable bias; measuring the local "
-                "design there"
+                f"iteration {it}: the last answer moved the run (to the best reachable bias, or "
+                "back to the least measured split's); measuring the local design there"
             )
         elif it > 1 and not self.local:
             why, prefit = self._prediction_missed(it)

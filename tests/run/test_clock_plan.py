@@ -155,7 +155,7 @@ def test_a_model_that_does_not_help_falls_back_to_the_design(tmp_path: Path) -> 
     first = tune(CONFIG, tmp_path / "first", plots=False, device=bench_gyro(3))
     model = load_model(tmp_path / "first" / f"iter{first.iterations:02d}" / "model.nc")
     # a model whose bias law is off by a third: its answers do not bring the split down
-    wrong = dataclasses.replace(model, Kp=[1.33 * np.asarray(k) for k in model.Kp])
+    wrong = dataclasses.replace(model, Kp=1.33 * np.asarray(model.Kp))
     gyro = Counting(bench_gyro(5))
     result = tune(CONFIG, tmp_path / "wrong", plots=False, device=gyro, from_model=wrong)
     assert gyro.gyro.true_split_hz(result.bias) <= 0.002

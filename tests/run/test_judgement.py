@@ -17,7 +17,7 @@ from truths import PAPER_BIASES, PAPER_FREQS, V_GYRO, cloverleaf_truth, degenera
 from sysid_core import fit, tune
 from sysid_core.errors import ConfigError
 from sysid_core.plugin.registry import get_registry
-from sysid_core.run.answer import best_effort
+from sysid_core.run.answer import WORSE, answer, best_effort, worse_than_measured
 from sysid_core.run.judgement import (
     DRIFTING_AIM,
     RESOLVE_FACTOR,
@@ -196,3 +196,63 @@ def test_a_measured_split_refutes_a_model_that_says_the_modes_cannot_meet(last: 
                 lines.append,
                 least,  # type: ignore[arg-type]
             )
+
+
+@pytest.mark.parametrize(
+    ("predicted", "least", "back"),
+    [
+        (17.8, 0.0097, True),  # random gyro 116's seventh answer (Hz), 9.7 mHz measured
+        (0.015, 0.0097, False),  # under ten acceptances: an answer, however poor
+        (0.025, 0.0097, True),
+        (0.025, 0.013, False),  # under twice the least measured split
+        (17.8, None, False),  # nothing measured yet
+    ],
+)
+def test_an_answer_predicted_worse_than_a_measured_split_goes_back(
+    predicted: float, least: float | None, back: bool
+) -> None:
+    """An answer whose own model predicts, at its DAC code, over twice the least split a
+    verification measured and over ten acceptances is not applied."""
+    where = np.array([4.0356, -4.6964, 0.0])
+    result = SimpleNamespace(split_hz=predicted)
+    seen = None if least is None else (least, where)
+    found = worse_than_measured(result, "degenerate", seen, ACCEPTANCE)  # type: ignore[arg-type]
+    assert (found is not None) is back
+    if found is not None:
+        np.testing.assert_array_equal(found[1], where)
+    assert worse_than_measured(result, "target", seen, ACCEPTANCE) is None  # type: ignore[arg-type]
+    assert WORSE == 2.0
+
+
+def test_answer_goes_back_to_the_least_measured_split() -> None:
+    """Through :func:`answer` on a fitted cloverleaf model: with a least measured split and an
+    acceptance far under what its answer's DAC code leaves, the answer is the measured bias,
+    marked as a move (the next iteration measures the local design there) and said."""
+    from sysid_cloverleaf import CloverleafGyro
+
+    model = fit(simulate(cloverleaf_truth(), PAPER_BIASES, PAPER_FREQS))
+    start = np.array([1.0, 1.0, 0.0])
+    space = BiasSpace(["B1", "B2", "B3"], ["B1", "B2"], start, (-10.0, 10.0), V_GYRO)
+    device = SimpleNamespace(device=CloverleafGyro(seed=1))
+    reg = get_registry()
+    criterion = reg.criterion("degenerate", solver=reg.solver("clarabel"))
+    lines: list[str] = []
+    where = np.array([2.04, 4.39, 0.0])
+    kwargs = {"bias_step": 0.25, "last_iteration": False, "say": lines.append}
+    plain = answer(criterion, model, space, device, 3, **kwargs)  # type: ignore[arg-type]
+    assert not plain.moved and plain.result.split_hz < 1e-3  # the cloverleaf's true answer
+    tiny = 0.05 * plain.result.split_hz  # a measured split 20 times under the answer's
+    step = answer(
+        criterion,
+        model,
+        space,
+        device,  # type: ignore[arg-type]
+        3,
+        acceptance_hz=tiny,
+        least_measured=(tiny, where),
+        **kwargs,  # type: ignore[arg-type]
+    )
+    assert step.moved
+    np.testing.assert_allclose(step.bias, where)
+    assert "going back there" in lines[-1]
+    assert step.result.info["worse_than_measured"]["measured_split_hz"] == tiny
