@@ -24,6 +24,7 @@ import argparse
 import json
 import shutil
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -55,6 +56,32 @@ def seeds(text: str) -> list[int]:
     return [int(s) for s in text.split(",")]
 
 
+def make_device(
+    seed: int,
+    bench: str,
+    tones: int = 1,
+    noise: float | None = None,
+    dac_bits: int | None = None,
+    draw: int = 0,
+) -> tuple[Any, dict]:
+    """Gyro ``seed`` on ``bench`` (its drifts' draw ``draw``) and the device options it took.
+
+    The same arguments give a replica of a population run's device (the same seeds).
+    """
+    sign = 1.0 if seed % 2 else -1.0
+    table = {"clock": True, "seed": seed + DRAW_STRIDE * draw, "tones": tones, **BENCHES[bench]}
+    table["temperature_ramp_k_per_h"] *= sign
+    options: dict = {"seed": seed, "bench": table}
+    noise = NOISE[bench] if noise is None else noise
+    if noise is not None:
+        options["noise"] = noise
+    if dac_bits is not None:
+        options["dac_bits"] = dac_bits
+    if draw:
+        options["noise_seed"] = draw
+    return get_registry().device("random-gyro", **options), options
+
+
 def one(
     seed: int,
     bench: str,
@@ -70,18 +97,7 @@ def one(
     electrodes: int = 2,
 ) -> dict:
     """Tune gyro ``seed``; its record (true split at the end, claim, points, bench time)."""
-    sign = 1.0 if seed % 2 else -1.0
-    table = {"clock": True, "seed": seed + DRAW_STRIDE * draw, "tones": tones, **BENCHES[bench]}
-    table["temperature_ramp_k_per_h"] *= sign
-    options: dict = {"seed": seed, "bench": table}
-    noise = NOISE[bench] if noise is None else noise
-    if noise is not None:
-        options["noise"] = noise
-    if dac_bits is not None:
-        options["dac_bits"] = dac_bits
-    if draw:
-        options["noise_seed"] = draw
-    device = get_registry().device("random-gyro", **options)
+    device, options = make_device(seed, bench, tones, noise, dac_bits, draw)
     config = {
         "device": {"name": "random-gyro", **{k: v for k, v in options.items() if k != "bench"}},
         "model": {"drift": drift, "structure": device.structure},

@@ -391,23 +391,31 @@ class SimulatedGyro:
         applied = self.applied_bias(bias)
         return modal_analysis(self.truth.M, self.truth.C, self.truth.stiffness(applied))
 
-    def true_modal_frequencies_hz(self, bias: Sequence[float]) -> np.ndarray:
+    def true_modal_frequencies_hz(
+        self, bias: Sequence[float], at_s: float | None = None
+    ) -> np.ndarray:
         """The TRUE undamped modal frequencies at ``bias`` (Hz, ascending).
 
         Generalized eigenvalues of ``(K(w), M)`` of :attr:`truth` with every electrode, at the
         bias the DAC really applies (:meth:`applied_bias`); on a bench with a clock, with its
-        drifts at the time now (:attr:`time_s`). Refuses biases it could not apply
-        (:class:`BiasLimitError`); use ``truth.modal_frequencies_hz`` for arbitrary values.
+        drifts at the time now (:attr:`time_s`), or at ``at_s`` on the bench's clock: a
+        replica of a run's device (the same seeds), asked at the run's time stamps in order,
+        gives the gyro as the run saw it. The ramp and charging are functions of the clock;
+        the temperature's random walk is drawn as times are asked (a time before the last one
+        asked gets the walk's latest value), so a replica's walk is another draw. Refuses
+        biases it could not apply (:class:`BiasLimitError`); use
+        ``truth.modal_frequencies_hz`` for arbitrary values.
         """
         applied = self.applied_bias(bias)
         if self.bench is None:
             return self.truth.modal_frequencies_hz(applied)
-        k = self._drifted_stiffness(applied, np.array([self.bench.now_s]))[0]
+        when = self.bench.now_s if at_s is None else float(at_s)
+        k = self._drifted_stiffness(applied, np.array([when]))[0]
         return modal_analysis(self.truth.M, self.truth.C, k)[0]
 
-    def true_split_hz(self, bias: Sequence[float]) -> float:
+    def true_split_hz(self, bias: Sequence[float], at_s: float | None = None) -> float:
         """The TRUE modal split at ``bias`` (Hz); see :meth:`true_modal_frequencies_hz`."""
-        f = self.true_modal_frequencies_hz(bias)
+        f = self.true_modal_frequencies_hz(bias, at_s)
         return float(f[1] - f[0])
 
     def __repr__(self) -> str:

@@ -66,6 +66,22 @@ def test_a_temperature_ramp_moves_both_modes_by_the_tempco() -> None:
     assert abs(moved) == pytest.approx(2e-6 * 4426 * split.time_s / 3600, rel=0.35)
 
 
+def test_a_replica_gives_the_gyro_at_an_earlier_time_stamp() -> None:
+    """The truth at a run's time stamp from a replica of its device (the same seeds), asked in
+    order: with a ramp and charging (functions of the clock) it is the gyro the run saw then,
+    to rounding; the split moved by charging in between."""
+    drifts = {"temperature_ramp_k_per_h": 1.5, "charging_v_per_h": 0.5}
+    run, replica = gyro(**drifts), gyro(**drifts)
+    bias = [2.0, 4.4, 0.0]
+    seen = []
+    for _ in range(3):
+        run.measure(bias, F)
+        seen.append((run.time_s, run.true_split_hz(bias)))
+    for t, split in seen:
+        assert replica.true_split_hz(bias, at_s=t) == pytest.approx(split, rel=1e-9, abs=1e-12)
+    assert abs(seen[-1][1] - seen[0][1]) > 1e-4  # the electrodes charged between the sweeps
+
+
 def test_charging_is_a_bias_offset_and_gain_wander_a_factor_per_sweep() -> None:
     charged = CloverleafGyro(seed=1, dac_bits=0, bench={"clock": True, "charging_v_per_h": 3.6})
     frozen = CloverleafGyro(seed=1, dac_bits=0)

@@ -1,0 +1,93 @@
+"""A drifting-bench run against the truth: what each verification measured and what was so.
+
+    python examples/truth_along_run.py runs/lab-501/gyro522 --seed 522 --bench lab
+
+For one gyro of ``examples/drift_population.py`` (its run folder, and the seed, bench and
+draw it was tuned with), a replica of its device (the same seeds) is asked, at the run's time
+stamps in order, for the TRUE split. Per verification: the split its window measured, the
+true split at the window's middle, and the true split at the same bias an iteration earlier
+(at the middle of the previous window: the answer's own miss, before the drift between the
+two windows). The temperature's random walk of the replica is another draw (the split moves
+by its differential tempco, 0.5 ppm/K, about 0.5 mHz per kelvin at 1 kHz); the ramp and the
+charging are the run's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+from drift_population import BENCHES, make_device
+
+
+def window_times(folder: Path) -> tuple[float, float] | None:
+    """The first and last time stamps of an iteration's verification sweeps, or None."""
+    stamps = []
+    for path in sorted(folder.glob("verify*.nc")):
+        if "model" in path.name:
+            continue
+        with xr.open_dataset(path) as ds:
+            if "time_s" in ds:
+                stamps.append(np.asarray(ds["time_s"].values, dtype=float))
+    if not stamps:
+        return None
+    return min(float(t.min()) for t in stamps), max(float(t.max()) for t in stamps)
+
+
+def rows(run: Path, seed: int, bench: str, draw: int = 0) -> list[dict]:
+    """One record per verification with a window (see the module)."""
+    summary = json.loads((run / "summary.json").read_text())
+    device, _ = make_device(seed, bench, draw=draw)
+    found, previous = [], None
+    for record in summary["history"]:
+        it = int(record["iteration"])
+        times = window_times(run / f"iter{it:02d}")
+        if times is None:
+            continue
+        middle = 0.5 * (times[0] + times[1])
+        bias = record["verified_bias"]
+        earlier = None if previous is None else device.true_split_hz(bias, at_s=previous)
+        measured = record["measured_split_hz"]
+        found.append(
+            {
+                "iteration": it,
+                "verification": record["verification"],
+                "hours": (times[0] / 3600, times[1] / 3600),
+                "measured_mhz": None if measured is None else measured * 1e3,
+                "true_mhz": device.true_split_hz(bias, at_s=middle) * 1e3,
+                "true_earlier_mhz": None if earlier is None else earlier * 1e3,
+            }
+        )
+        previous = middle
+    return found
+
+
+def main() -> None:
+    """Parse the arguments and print the table."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("run", type=Path, help="the gyro's run folder (with summary.json)")
+    parser.add_argument("--seed", type=int, required=True)
+    parser.add_argument("--bench", choices=sorted(BENCHES), default="lab")
+    parser.add_argument("--draw", type=int, default=0)
+    args = parser.parse_args()
+    if not (args.run / "summary.json").is_file():
+        parser.error(f"no summary.json in {args.run}; give a gyro's folder of drift_population")
+
+    def mhz(v: float | None) -> str:
+        return "-" if v is None else f"{v:.3g}"
+
+    print("| iteration | window (h) | measured (mHz) | true, window's middle | true, earlier |")
+    print("|---|---|---|---|---|")
+    for r in rows(args.run, args.seed, args.bench, args.draw):
+        lo, hi = r["hours"]
+        print(
+            f"| {r['iteration']} ({r['verification']}) | {lo:.2f}-{hi:.2f} | "
+            f"{mhz(r['measured_mhz'])} | {mhz(r['true_mhz'])} | {mhz(r['true_earlier_mhz'])} |"
+        )
+
+
+if __name__ == "__main__":
+    main()
