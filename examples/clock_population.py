@@ -31,6 +31,7 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -181,6 +182,20 @@ def one(pop: Population, seed: int, from_model: bool = False) -> dict:
     }
 
 
+def progress(record: dict, done: int, total: int, what: str = "gyro") -> str:
+    """One line per finished run, for the terminal (the table comes at the end)."""
+    head = f"[{done}/{total}] {what} {record['seed']}:"
+    if "error" in record:
+        return f"{head} error: {record['error']}"
+    t = record["time_to_target_s"]
+    reached = "never reached 1 mHz" if t is None else f"1 mHz after {t / 60:.1f} min"
+    return (
+        f"{head} {reached}, {record['true_end_split_hz'] * 1e3:.3g} mHz at the end "
+        f"({'converged' if record['converged'] else 'not converged'}), "
+        f"{record['clock_s'] / 60:.1f} min in all"
+    )
+
+
 def _minutes(x: float) -> str:
     return "never" if not np.isfinite(x) else f"{x:.1f}"
 
@@ -265,6 +280,9 @@ def main() -> None:
             records.append(one(pop, seed, args.from_model))
             log.write(json.dumps(records[-1]) + "\n")
             log.flush()
+            what = "start" if args.gyro == "cloverleaf" else "gyro"
+            line = progress(records[-1], len(records), len(which), what)
+            print(line, file=sys.stderr, flush=True)
     label = args.label or (
         f"{args.gyro}, {args.tones} tone(s){', from a model' if args.from_model else ''}"
     )

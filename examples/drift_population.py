@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -131,6 +132,19 @@ def one(
     }
 
 
+def progress(record: dict, done: int, total: int) -> str:
+    """One line per finished gyro, for the terminal (the table comes at the end)."""
+    head = f"[{done}/{total}] gyro {record['seed']}:"
+    if "error" in record:
+        return f"{head} error: {record['error']}"
+    return (
+        f"{head} {record['frequency_hz'] / 1e3:.1f} kHz, true split "
+        f"{record['true_end_split_hz'] * 1e3:.3g} mHz at the end "
+        f"({'converged' if record['converged'] else 'not converged'}), "
+        f"{record['bench_time_s'] / 3600:.2f} h of bench time"
+    )
+
+
 def row(bench: str, drift: str, records: list[dict]) -> str:
     """The table row: true end split percentiles, within 2 mHz, false claims, bench time."""
     ok = [r for r in records if "error" not in r]
@@ -195,7 +209,8 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     records = []
     with (args.out / "runs.jsonl").open("w") as log:
-        for seed in seeds(args.seeds):
+        which = seeds(args.seeds)
+        for seed in which:
             records.append(
                 one(
                     seed,
@@ -214,6 +229,7 @@ def main() -> None:
             )
             log.write(json.dumps(records[-1]) + "\n")
             log.flush()
+            print(progress(records[-1], len(records), len(which)), file=sys.stderr, flush=True)
     print(
         "| bench | drift | within 2 mHz | true end split p50 / p90 / max (mHz) | converged | "
         "converged over 4 mHz | errors | points (median) | bench time (median, h) |"

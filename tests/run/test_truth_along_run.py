@@ -29,5 +29,9 @@ def test_a_replica_reads_the_truth_the_run_ended_with(
         assert abs(r["measured_mhz"] - r["true_mhz"]) < 3.0
     assert verified[-1]["true_mhz"] == pytest.approx(record["true_end_split_hz"] * 1e3, abs=0.3)
     assert found[0]["true_earlier_mhz"] is None and verified[-1]["true_earlier_mhz"] is not None
+    # the population's progress line says the same end
+    line = drift_population.progress(record, 3, 24)
+    assert line.startswith("[3/24] gyro 110: 23.7 kHz")
+    assert f"{record['true_end_split_hz'] * 1e3:.3g} mHz at the end" in line
     for name in ("drift_population", "truth_along_run"):
         sys.modules.pop(name, None)
