@@ -66,14 +66,14 @@ def plot_clock(
         if math.isfinite(median):
             ax.plot([median, median], [y - 0.32, y + 0.32], color="k", lw=2)
         reached = int(np.sum(ok))
-        ax.text(never_at * 1.12, y, f"{reached}/{len(records)}", va="center", fontsize=8)
+        ax.text(never_at * 1.25, y, f"{reached}/{len(records)}", va="center", fontsize=8)
     for m in marks or []:
         ax.axvline(m, color="gray", ls="--", lw=1)
         ax.text(m * 1.04, -0.6, f"{m:g} min", fontsize=8, color="gray", va="bottom")
     ax.axvline(never_at / 1.4, color="k", lw=0.5)
     ax.set_xscale("log")
     lo = min(finite, default=1.0) / 1.5
-    ax.set_xlim(lo, never_at * 1.45)
+    ax.set_xlim(lo, never_at * 2.0)
     grid = (0.1, 0.2, 0.5, 1, 2, 5, 10, 20, 50, 100, 200, 500)
     ticks = [t for t in grid if lo <= t <= never_at / 2]
     ax.xaxis.set_major_locator(FixedLocator([*ticks, never_at]))
