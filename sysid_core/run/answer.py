@@ -2,8 +2,9 @@
 
 :func:`answer` solves the criterion (a quadratic law by repeated linearization), continues from
 the best reachable bias when the model's "unreachable" may be its extrapolation, moves the
-answer to the DAC code the model predicts best, checks the bias against the device's limits and
-attaches the answer's confidence region.
+answer to the DAC code the model predicts best, goes back to the least measured split's bias
+when the model predicts its own answer far worse than that (:func:`worse_than_measured`),
+checks the bias against the device's limits and attaches the answer's confidence region.
 """
 
 from __future__ import annotations
