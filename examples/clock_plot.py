@@ -14,7 +14,6 @@ minutes (targets, say).
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from pathlib import Path
 
@@ -23,15 +22,13 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+import population_plot  # the same folder: the population scripts' shared reading
 from matplotlib.ticker import FixedLocator, NullFormatter, ScalarFormatter
 
 
 def read_runs(path: Path) -> list[dict]:
     """The records of one population (a folder with ``runs.jsonl``, or the file)."""
-    file = path / "runs.jsonl" if path.is_dir() else path
-    if not file.is_file():
-        raise SystemExit(f"clock_plot: no runs.jsonl at {path}; give clock_population's --out")
-    return [json.loads(line) for line in file.read_text().splitlines() if line.strip()]
+    return population_plot.read_runs(path, "clock_plot", "clock_population")
 
 
 def minutes(record: dict) -> float:
@@ -98,14 +95,11 @@ def main() -> None:
     parser.add_argument("--marks", nargs="*", type=float, default=None, help="minutes to mark")
     parser.add_argument("--out", type=Path, default=Path("clock.png"))
     args = parser.parse_args()
-    labels = args.labels or [p.name if p.is_dir() else p.parent.name for p in args.runs]
-    if len(labels) != len(args.runs):
-        parser.error(f"--labels gives {len(labels)} labels for {len(args.runs)} populations")
-    populations = {lab: read_runs(p) for lab, p in zip(labels, args.runs, strict=True)}
+    populations = population_plot.labelled_runs(parser, args, "clock_plot", "clock_population")
     medians = plot_clock(populations, args.out, args.marks)
     text = ", ".join(
         f"{lab} {'never' if math.isinf(m) else f'{m:.1f}'}"
-        for lab, m in zip(labels, medians, strict=True)
+        for lab, m in zip(populations, medians, strict=True)
     )
     print(f"median minutes to 1 mHz: {text}; figure in {args.out}")
 

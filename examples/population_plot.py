@@ -25,12 +25,31 @@ from matplotlib.ticker import FixedLocator, NullFormatter, ScalarFormatter
 ACCEPTANCE_MHZ = 2.0
 
 
-def read_runs(path: Path) -> list[dict]:
-    """The records of one population (a folder with ``runs.jsonl``, or the file)."""
+def read_runs(
+    path: Path, script: str = "population_plot", maker: str = "drift_population"
+) -> list[dict]:
+    """The records of one population (a folder with ``runs.jsonl``, or the file).
+
+    ``script`` and ``maker`` name this script and the one whose ``--out`` it reads, for the
+    one-line refusal of a path without ``runs.jsonl``.
+    """
     file = path / "runs.jsonl" if path.is_dir() else path
     if not file.is_file():
-        raise SystemExit(f"population_plot: no runs.jsonl at {path}; give drift_population's --out")
+        raise SystemExit(f"{script}: no runs.jsonl at {path}; give {maker}'s --out")
     return [json.loads(line) for line in file.read_text().splitlines() if line.strip()]
+
+
+def labelled_runs(
+    parser: argparse.ArgumentParser,
+    args: argparse.Namespace,
+    script: str = "population_plot",
+    maker: str = "drift_population",
+) -> dict[str, list[dict]]:
+    """Each population's records under its label (``--labels``, else its folder's name)."""
+    labels = args.labels or [p.name if p.is_dir() else p.parent.name for p in args.runs]
+    if len(labels) != len(args.runs):
+        parser.error(f"--labels gives {len(labels)} labels for {len(args.runs)} populations")
+    return {lab: read_runs(p, script, maker) for lab, p in zip(labels, args.runs, strict=True)}
 
 
 def plot_population(
@@ -99,10 +118,7 @@ def main() -> None:
     parser.add_argument("--acceptance", type=float, default=ACCEPTANCE_MHZ, help="mHz (2)")
     parser.add_argument("--out", type=Path, default=Path("population.png"))
     args = parser.parse_args()
-    labels = args.labels or [p.name if p.is_dir() else p.parent.name for p in args.runs]
-    if len(labels) != len(args.runs):
-        parser.error(f"--labels gives {len(labels)} labels for {len(args.runs)} populations")
-    populations = {lab: read_runs(p) for lab, p in zip(labels, args.runs, strict=True)}
+    populations = labelled_runs(parser, args)
     within, total = plot_population(populations, args.out, args.acceptance)
     print(f"{within} of {total} runs end within {args.acceptance:g} mHz; figure in {args.out}")
 

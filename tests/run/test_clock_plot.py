@@ -15,6 +15,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def _script() -> Any:
+    sys.path.insert(0, str(ROOT / "examples"))  # clock_plot reads with population_plot
     spec = importlib.util.spec_from_file_location("clock_plot", ROOT / "examples" / "clock_plot.py")
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
