@@ -37,13 +37,16 @@ class RunContext:
         exp = self.config.experiment
         return exp.bias_step if it == 1 or exp.refine_bias_step is None else exp.refine_bias_step
 
-    def design(self, bias: np.ndarray, it: int = 1) -> np.ndarray:
+    def design(self, bias: np.ndarray, it: int = 1, quiet: bool = False) -> np.ndarray:
         """The experiments of eq. (18) around ``bias``, checked against the rank condition (6).
 
-        The design is two-sided unless the law is linear or the design says otherwise.
+        The design is two-sided unless the law is linear or the design says otherwise, or the
+        law is ``auto`` and ``quiet`` (a quiet bench's first design,
+        :mod:`sysid_core.run.locating`).
         """
         exp, law = self.config.experiment, self.config.model.stiffness
-        two_sided = exp.design == "two-sided" or (exp.design is None and law != "linear")
+        sided = law != "linear" and not (quiet and law == "auto")
+        two_sided = exp.design == "two-sided" or (exp.design is None and sided)
         design = design_experiments(
             bias, self.space.index, self.step(it), self.space.limits, two_sided=two_sided
         )

@@ -41,17 +41,20 @@ from sysid_core.run.lean import (
     motion_allowance,
     scout_grid,
 )
+from sysid_core.run.locating import locate as locate_modes
+from sysid_core.run.locating import probe_points
 from sysid_core.run.passes import repeat_window
 from sysid_core.run.previous import PreviousModel
 from sysid_core.run.sweeps import SweepPlan
 from sysid_core.run.verification import COARSE_ENOUGH, Verification, Window, verify
-from sysid_core.run.zoom import zoom_grid
 from sysid_core.tuning.criteria import ConfidenceRegion, TuningResult
 
 __all__ = ["FullProtocol", "LeanProtocol", "Prefit", "Protocol", "RunContext", "make_protocol"]
 
 #: A fit already made of the data an iteration will fit: the data, the model, its notes.
 Prefit = tuple[xr.Dataset, FittedModel, list[str]]
+#: One sweep's data, its single-bias model and its evidence.
+Found = tuple[xr.Dataset, FittedModel, WindowAssessment]
 
 
 class Protocol(ABC):
@@ -173,6 +176,10 @@ class LeanProtocol(Protocol):
         self.last_verified: tuple[np.ndarray, np.ndarray] | None = None
         self.last_region: ConfidenceRegion | None = None
         self.splits: list[float] = []  # every verified split, in order
+        #: With ``probe``, the run's first look at the band is a probe
+        #: (:mod:`sysid_core.run.locating`); whether it found the bench quiet decides the first
+        #: design.
+        self.quiet, self.scout_plan = False, self.locate_plan
 
     def data(
         self, it: int, bias: np.ndarray, folder: Path, center_hz: float | None, split_hz: float
@@ -200,8 +207,10 @@ class LeanProtocol(Protocol):
             self.local = True
             ctx.say(f"iteration {it}: {why}; fitting the sweeps near the bias from now on")
         radius = LOCAL_RADIUS * ctx.step(it)
+        if it == 1 and not self.known.has(bias):  # the centre first: is the bench quiet?
+            self._learn(bias, folder / "exp0.nc")
         if it == 1 or not self.known.meets_rank(bias, radius, ctx.config.model.stiffness):
-            for j, b in enumerate(ctx.design(bias, it)):
+            for j, b in enumerate(ctx.design(bias, it, quiet=self.quiet and it == 1)):
                 if not self.known.has(b):
                     self._learn(b, folder / f"exp{j}.nc")
         if it == 1:
@@ -336,6 +345,8 @@ class LeanProtocol(Protocol):
         The band, a scout or a mode grid (:mod:`sysid_core.run.lean`); one that does not show
         both modes is followed by windows around the modes it fitted (once), the locating band,
         one four times as dense and the band at ``resolution_hz`` (:mod:`sysid_core.run.zoom`).
+        With ``[experiment] probe``, the run's first look at the band is a probe of a third of
+        its points, which also says whether the bench is quiet (:mod:`sysid_core.run.locating`).
         """
         ctx = self.ctx
         guess, scout = self.known.guess(bias, ctx.fitter.structure, ctx.fitter.model)
@@ -344,40 +355,32 @@ class LeanProtocol(Protocol):
             first = locate
         elif first is None and scout:
             assert guess is not None
-            grid = scout_grid(guess, self.locate_plan)
+            grid = scout_grid(guess, self.scout_plan)
             first = locate if grid.size >= locate.size else grid
         elif first is None:
             assert guess is not None
             first = mode_grid(guess, ctx.plan)
-        denser = locate_plan(ctx.plan, 4 * (ctx.config.experiment.locate_points - 1) + 1).band()
-        tries = [
-            ("", first),
-            ("-locate", locate),
-            ("-locate4", denser),
-            ("-band", ctx.plan.band()),
-        ]
-        done: list[np.ndarray] = []
-        zoomed = False
-        while tries:
-            suffix, freqs = tries.pop(0)
-            if any(d.size == freqs.size and np.allclose(d, freqs) for d in done):
-                continue
-            name = f"{path.stem}{suffix}.nc"
-            _, _, evidence = self.sweep(bias, freqs, path.with_name(name), True)
-            if evidence.ok:
-                return
-            done.append(freqs)
-            zoom = None if zoomed else zoom_grid(freqs, evidence, ctx.plan, denser.size)
-            then = ""
-            if zoom is not None:  # windows around the modes its fit placed roughly
-                zoomed = True
-                tries.insert(0, ("-zoom", zoom))
-                f = evidence.frequencies_hz
-                then = f"; windows around {f[0]:.3f} / {f[1]:.3f} Hz"
-            ctx.say(
-                f"{path.parent.name}/{name}: the sweep does not show both modes "
-                f"({evidence.failures()}){then}"
-            )
+        points = ctx.config.experiment.locate_points
+        denser = locate_plan(ctx.plan, 4 * (points - 1) + 1).band()
+        probe = None
+        probing = locate_plan(ctx.plan, probe_points(points))
+        # the run's first look at the band, on a bench that may be quiet
+        looked = first is locate and not len(self.known) and ctx.config.experiment.probe
+        if looked:
+            probe = probing.band()
+            probe = probe if probe.size < locate.size else None
+        tries = [("-locate", locate), ("-locate4", denser), ("-band", ctx.plan.band())]
+        if probe is None:
+            tries.insert(0, ("", first))
+
+        def sweep(freqs: np.ndarray, at: Path, band: bool) -> Found:
+            return self.sweep(bias, freqs, at, band)
+
+        quiet = locate_modes(sweep, ctx.say, path, tries, ctx.plan, denser.size, probe)
+        if looked:  # it decides the first design
+            self.quiet = quiet
+        if probe is not None and quiet:  # scouts too can locate modes with the probe's step
+            self.scout_plan = probing
 
 
 def make_protocol(ctx: RunContext, prior: FittedModel | None = None) -> Protocol:

@@ -19,6 +19,7 @@ from sysid_core.run import lean
 from sysid_core.run.config import ExperimentConfig, parse_config
 from sysid_core.run.evidence import local_steps
 from sysid_core.run.lean import ModeGuess, mode_grid, scout_grid
+from sysid_core.run.locating import QUIET_NOISE, probe_points
 from sysid_core.run.pipeline import TuningRun
 from sysid_core.run.sweeps import MIN_POINTS, SweepPlan
 
@@ -138,6 +139,70 @@ def test_lean_run_tunes_on_few_points(lean_run: tuple[Path, Any, Recording]) -> 
         assert files(out, f"iter{rec.iteration:02d}") == ["verify.nc"]
 
 
+def probing(**tuning: Any) -> dict[str, Any]:
+    """The main job with ``[experiment] probe = true`` (and ``tuning`` changed)."""
+    return {
+        **MAIN_JOB,
+        "tuning": {**MAIN_JOB["tuning"], **tuning},
+        "experiment": {**MAIN_JOB["experiment"], "probe": True},
+    }
+
+
+def test_a_probe_on_a_quiet_bench_is_the_locating_sweep_and_the_design_one_sided(
+    lean_run: tuple[Path, Any, Recording], tmp_path: Path
+) -> None:
+    dev = Recording(seed=1)
+    summary = TuningRun(parse_config(probing()), tmp_path, device=dev, plots=False).run()
+    assert summary.converged and dev.true_split_hz(summary.bias) <= 0.001
+    # 21 of the 61 locating points find the bench quiet: they stand as the locating sweep, and
+    # the first design is one-sided (3 biases); the scouts step as the probe did (11 points)
+    assert (
+        [n for _, n in dev.calls[:3]] == [probe_points(lean.LOCATE_POINTS), 11, 11] == [21, 11, 11]
+    )
+    names = files(tmp_path, "iter01")
+    assert names[:3] == ["exp0.nc", "exp1.nc", "exp2.nc"]
+    assert not [f for f in names if f.startswith(("exp0-", "exp3"))]
+    assert summary.points < 0.7 * lean_run[1].points
+
+
+def test_a_probe_on_a_noisy_bench_is_followed_by_the_locating_sweep_and_a_two_sided_design(
+    tmp_path: Path,
+) -> None:
+    dev = Recording(seed=1, noise=3e-3)  # 50 dB: the probe's noise is over QUIET_NOISE
+    lines: list[str] = []
+    run = TuningRun(
+        parse_config(probing(max_iterations=1)),
+        tmp_path,
+        device=dev,
+        plots=False,
+        progress=lines.append,
+    )
+    run.run()
+    assert [n for _, n in dev.calls[:2]] == [21, lean.LOCATE_POINTS]
+    said = [line for line in lines if "exp0.nc: a probe of 21 points over the band" in line]
+    assert said and said[0].endswith("of a quiet bench; measuring the locating band")
+    assert float(said[0].split("its noise is ")[1].split("%")[0]) / 100 > QUIET_NOISE
+    assert {"exp0.nc", "exp0-locate.nc", "exp3.nc", "exp4.nc"} <= set(files(tmp_path, "iter01"))
+    # the probe is fitted with every other sweep of the iteration
+    sweeps = len([f for f in files(tmp_path, "iter01") if f.startswith("exp")])
+    assert any(line.endswith(f"model to {sweeps} sweeps") for line in lines), lines
+
+
+def test_a_locating_sweep_no_larger_than_a_probe_is_judged_itself(tmp_path: Path) -> None:
+    config = probing(max_iterations=1)
+    config["experiment"]["locate_points"] = 21
+    dev = Recording(seed=1)
+    TuningRun(parse_config(config), tmp_path, device=dev, plots=False).run()
+    assert dev.calls[0][1] == 21  # no probe before it; quiet, so the design is one-sided
+    names = files(tmp_path, "iter01")
+    assert [f for f in names if f.startswith("exp") and "-" not in f] == [
+        "exp0.nc",
+        "exp1.nc",
+        "exp2.nc",
+    ]
+    assert probe_points(21) == probe_points(31) == 21 and probe_points(121) == 41
+
+
 def test_a_v2_gyro_tunes_on_fewer_points_with_the_linear_law(
     lean_run: tuple[Path, Any, Recording], tmp_path: Path
 ) -> None:
@@ -175,6 +240,21 @@ def test_lean_resume_replays_the_same_choices(
     dev = Recording(seed=1)
     resumed = TuningRun(cfg, out, resume=True, device=dev, plots=False).run()
     assert dev.calls == ref_dev.calls[3:]  # the 3 saved sweeps are read, the rest measured
+    assert resumed.bias == reference.bias and resumed.points == reference.points
+
+
+def test_a_probed_run_resumes_with_the_same_choices(tmp_path: Path) -> None:
+    # a noisy bench: the probe is measured, then the locating sweep; a resumed run reads both
+    # back and makes the same choices (interrupted in the design)
+    cfg = parse_config(probing(max_iterations=1))
+    ref = Recording(seed=1, noise=3e-3)
+    reference = TuningRun(cfg, tmp_path / "ref", device=ref, plots=False).run()
+    out = tmp_path / "run"
+    with pytest.raises(DeviceError, match="lost the analyzer"):
+        TuningRun(cfg, out, device=Recording(fail_on=4, seed=1, noise=3e-3), plots=False).run()
+    dev = Recording(seed=1, noise=3e-3)
+    resumed = TuningRun(cfg, out, resume=True, device=dev, plots=False).run()
+    assert dev.calls == ref.calls[3:]  # the probe, the locating sweep and a scout are read
     assert resumed.bias == reference.bias and resumed.points == reference.points
 
 

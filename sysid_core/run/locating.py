@@ -1,0 +1,147 @@
+"""Locating the modes: a coarse probe of the band first, the whole locating sweep where it is noisy.
+
+A lean run's first sweep only has to find the modes; the mode grids measure them. With one
+tone every point costs a dwell (10 s on the cloverleaf: 10 minutes for the 61 points of
+``locate_points``), and at the devices' default noise (80 dB) a sweep of a third of them finds
+the modes as well. At 60 dB it does not serve as well: the fits of the fast gyros lean on the
+far response that the locating sweep measures, and its points are few to average the noise.
+
+So with ``[experiment] probe = true`` the run measures a *probe* first, every third point of
+the locating sweep (:func:`probe_points`: 21 of 61), and keeps it as the locating sweep when it
+shows both modes and its measured noise is under :data:`QUIET_NOISE` of its response
+(:func:`bench_noise`): the bench is then *quiet*. Otherwise the whole locating sweep follows at
+the same bias, as without a probe, and the probe is kept with every other sweep. The same
+measurement decides the first design (:meth:`~sysid_core.run.context.RunContext.design`): on a
+quiet bench, under the ``auto`` stiffness law, the first design is one-sided (``n + 1``
+biases), the designs after it two-sided; and scouts step as the probe did.
+
+Measured with a clock (docs/bench-time.md): the cloverleaf, whose electrodes follow ``v²``,
+reaches a true split of 1 mHz in a median of 14.4 minutes with one tone instead of 30.0, and
+4.4 with 8 tones instead of 5.1. Random gyros, whose laws are not ``v²``, pay for the one-sided
+first design about what the shorter locating sweep saves them, and the uncontrolled lab (60 dB,
+where nearly every probe is noisy) ends fewer gyros within 2 mHz: an option, not the default.
+
+Why the whole locating sweep again rather than the probe's missing two thirds: completed by a
+second pass interleaved with the first, the points around a mode come from two times a quarter
+of an hour apart on a slow gyro, between which a drifting bench moves the mode; a locating
+sweep made so lost lab gyros (72 of 96 within 2 mHz against 77, the cause not isolated).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from sysid_core.data.schema import measured_mask
+from sysid_core.model.fitted import FittedModel
+from sysid_core.run.evidence import WindowAssessment, noise_share
+from sysid_core.run.sweeps import SweepPlan
+from sysid_core.run.zoom import zoom_grid
+
+__all__ = [
+    "PROBE_EVERY",
+    "PROBE_MIN_POINTS",
+    "QUIET_NOISE",
+    "bench_noise",
+    "locate",
+    "probe_points",
+]
+
+#: A bench is quiet when the probe's noise is under this share of its response (the measured
+#: noise's norm over the response's, :func:`bench_noise`): 6 of 48 random gyros were over it
+#: at 80 dB, 47 of 48 at 60 dB.
+QUIET_NOISE = 0.02
+#: The probe measures every this many points of the locating sweep,
+PROBE_EVERY = 3
+#: but at least this many: a 21-point locating sweep cost nothing measurable at 80 dB.
+PROBE_MIN_POINTS = 21
+
+#: One sweep at the run's bias: frequencies, file, whole band or not -> data, model, evidence.
+SweepAt = Callable[[np.ndarray, Path, bool], tuple[xr.Dataset, FittedModel, WindowAssessment]]
+
+
+def probe_points(locate_points: int) -> int:
+    """Points of the probe: every :data:`PROBE_EVERY` th point of ``locate_points``.
+
+    At least :data:`PROBE_MIN_POINTS`; a locating sweep of no more than that has no probe, and
+    is judged quiet or not itself.
+    """
+    return max((int(locate_points) - 1) // PROBE_EVERY + 1, PROBE_MIN_POINTS)
+
+
+def bench_noise(sweep: xr.Dataset, model: FittedModel) -> float:
+    """How noisy a one-experiment sweep is, relative to its response.
+
+    The measured noise's norm over the response's (:func:`~sysid_core.run.evidence.noise_share`)
+    when the sweep carries ``noise_var``; otherwise the relative error of its own fit ``model``,
+    which holds the noise and whatever the model does not explain.
+    """
+    mask = measured_mask(sweep)[0]
+    psi = np.asarray(sweep["response"].values[0])[mask]
+    if "noise_var" in sweep:
+        return noise_share(sweep, mask, psi)
+    f = np.asarray(sweep["frequency"].values, dtype=float)[mask]
+    norm = float(np.linalg.norm(psi))
+    if norm <= 0:
+        return float("inf")
+    return float(np.linalg.norm(model.response(f, []) - psi)) / norm
+
+
+def locate(
+    sweep: SweepAt,
+    say: Callable[[str], None],
+    path: Path,
+    tries: list[tuple[str, np.ndarray]],
+    plan: SweepPlan,
+    denser_points: int,
+    probe: np.ndarray | None = None,
+) -> bool:
+    """Measure ``tries`` in turn at one bias until a sweep shows both modes; True if quiet.
+
+    ``tries``: ``(suffix, frequencies)``, the file of each ``path`` with the suffix; one that
+    repeats a sweep already made is skipped. The first whole-band sweep that fails is followed
+    by windows around the modes its fit placed (:func:`~sysid_core.run.zoom.zoom_grid`, once).
+    ``probe``: measured first, as ``path`` itself; it ends the search if it shows both modes
+    and the bench is quiet (:data:`QUIET_NOISE`), else the tries follow. The return says
+    whether the first sweep measured showed both modes on a quiet bench.
+    """
+    if probe is not None:
+        data, model, evidence = sweep(probe, path, True)
+        noise = bench_noise(data, model)
+        if evidence.ok and noise < QUIET_NOISE:
+            return True
+        why = (
+            f"its noise is {noise:.1%} of the response, over the {QUIET_NOISE:.0%} of a quiet bench"
+            if evidence.ok
+            else f"it does not show both modes: {evidence.failures()}"
+        )
+        say(
+            f"{path.parent.name}/{path.name}: a probe of {probe.size} points over the band; "
+            f"{why}; measuring the locating band"
+        )
+    done: list[np.ndarray] = []
+    zoomed = False
+    while tries:
+        suffix, freqs = tries.pop(0)
+        if any(d.size == freqs.size and np.allclose(d, freqs) for d in done):
+            continue
+        name = f"{path.stem}{suffix}.nc"
+        data, model, evidence = sweep(freqs, path.with_name(name), True)
+        if evidence.ok:
+            return probe is None and not done and bench_noise(data, model) < QUIET_NOISE
+        done.append(freqs)
+        zoom = None if zoomed else zoom_grid(freqs, evidence, plan, denser_points)
+        then = ""
+        if zoom is not None:  # windows around the modes its fit placed roughly
+            zoomed = True
+            tries.insert(0, ("-zoom", zoom))
+            f = evidence.frequencies_hz
+            then = f"; windows around {f[0]:.3f} / {f[1]:.3f} Hz"
+        say(
+            f"{path.parent.name}/{name}: the sweep does not show both modes "
+            f"({evidence.failures()}){then}"
+        )
+    return False
