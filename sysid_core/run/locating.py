@@ -112,6 +112,11 @@ def locate(
         data, model, evidence = sweep(probe, path, True)
         noise = bench_noise(data, model)
         if evidence.ok and noise < QUIET_NOISE:
+            say(
+                f"{path.parent.name}/{path.name}: a probe of {probe.size} points over the band "
+                f"shows both modes, its noise {noise:.2%} of the response: a quiet bench; it "
+                "stands as the locating sweep"
+            )
             return True
         why = (
             f"its noise is {noise:.1%} of the response, over the {QUIET_NOISE:.0%} of a quiet bench"

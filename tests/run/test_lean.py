@@ -152,8 +152,14 @@ def test_a_probe_on_a_quiet_bench_is_the_locating_sweep_and_the_design_one_sided
     lean_run: tuple[Path, Any, Recording], tmp_path: Path
 ) -> None:
     dev = Recording(seed=1)
-    summary = TuningRun(parse_config(probing()), tmp_path, device=dev, plots=False).run()
+    lines: list[str] = []
+    run = TuningRun(
+        parse_config(probing()), tmp_path, device=dev, plots=False, progress=lines.append
+    )
+    summary = run.run()
     assert summary.converged and dev.true_split_hz(summary.bias) <= 0.001
+    said = [line for line in lines if line.startswith("iter01/exp0.nc: a probe of 21 points")]
+    assert said and said[0].endswith("a quiet bench; it stands as the locating sweep")
     # 21 of the 61 locating points find the bench quiet: they stand as the locating sweep, and
     # the first design is one-sided (3 biases); the scouts step as the probe did (11 points)
     assert (
