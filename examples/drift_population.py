@@ -64,14 +64,18 @@ def make_device(
     noise: float | None = None,
     dac_bits: int | None = None,
     draw: int = 0,
+    start_min: float = 0.0,
 ) -> tuple[Any, dict]:
     """Gyro ``seed`` on ``bench`` (its drifts' draw ``draw``) and the device options it took.
 
+    ``start_min``: the bench's clock starts that many minutes into its drifts (``start_s``).
     The same arguments give a replica of a population run's device (the same seeds).
     """
     sign = 1.0 if seed % 2 else -1.0
     table = {"clock": True, "seed": seed + DRAW_STRIDE * draw, "tones": tones, **BENCHES[bench]}
     table["temperature_ramp_k_per_h"] *= sign
+    if start_min:
+        table["start_s"] = 60.0 * start_min
     options: dict = {"seed": seed, "bench": table}
     noise = NOISE[bench] if noise is None else noise
     if noise is not None:
@@ -96,9 +100,10 @@ def one(
     dac_bits: int | None = None,
     draw: int = 0,
     electrodes: int = 2,
+    start_min: float = 0.0,
 ) -> dict:
     """Tune gyro ``seed``; its record (true split at the end, claim, points, bench time)."""
-    device, options = make_device(seed, bench, tones, noise, dac_bits, draw)
+    device, options = make_device(seed, bench, tones, noise, dac_bits, draw, start_min)
     config = {
         "device": {"name": "random-gyro", **{k: v for k, v in options.items() if k != "bench"}},
         "model": {"drift": drift, "structure": device.structure},
@@ -193,6 +198,12 @@ def main() -> None:
         help="another draw of the noise and the drifts for the same gyros (0: the seeds' own)",
     )
     parser.add_argument(
+        "--start-min",
+        type=float,
+        default=0.0,
+        help="start every run that many minutes into the bench's drifts ([device.bench] start_s)",
+    )
+    parser.add_argument(
         "--electrodes",
         type=int,
         default=2,
@@ -202,6 +213,8 @@ def main() -> None:
     args = parser.parse_args()
     if args.draw < 0:
         parser.error(f"--draw must be a non-negative integer, got {args.draw}")
+    if not args.start_min >= 0:
+        parser.error(f"--start-min must be a non-negative number of minutes, got {args.start_min}")
     if args.electrodes < 2:
         parser.error(
             f"--electrodes must be at least 2 (degenerate modes need two), got {args.electrodes}"
@@ -225,6 +238,7 @@ def main() -> None:
                     args.dac_bits,
                     args.draw,
                     args.electrodes,
+                    args.start_min,
                 )
             )
             log.write(json.dumps(records[-1]) + "\n")

@@ -4,7 +4,8 @@ A :class:`SimulatedGyro <sysid_simgyro.device.SimulatedGyro>` with a bench that 
 (``[device.bench] clock = true``) measures in time: after each bias change it waits
 ``settle_tau`` time constants ``τ = Q/(π f)`` for the gyro to settle, each acquisition takes
 ``dwell_q_over_omega · Q/ω`` seconds, and every point is stamped with the time ``time_s`` at which
-it was measured (the device's monotonic clock, zero when the device is made). While the clock
+it was measured (the device's monotonic clock, zero when the device is made unless
+``start_s`` says otherwise). While the clock
 runs, the bench may drift (every drift is off by default, so that a bench with a clock but no
 drift measures exactly what the frozen bench measures):
 
@@ -22,6 +23,11 @@ drift measures exactly what the frozen bench measures):
 * **Analyzer gain and phase wander**: every acquisition's response is multiplied by
   ``(1 + g) e^{jφ}``, ``g`` and ``φ`` drawn per sweep with standard deviations ``gain_wander``
   (relative) and ``phase_wander_deg``.
+* **A later start** (``start_s``, default 0): the clock reads ``start_s`` when the device is
+  made, as if the ramp and the charging had been running that long (``ΔT`` and the charging
+  offsets start at ``ramp · start_s`` and ``charging_v_per_h · start_s``; the walk starts
+  there). The same gyro and drifts, met later: what a run's result owes to where in the
+  drifts it started.
 
 Physical ranges (docs/drift.md): a lab without temperature control drifts by 0.5-1.5 K/h, a
 vacuum chamber by 0.05-0.3 K/h; charging moves an electrode by millivolts per hour.
@@ -77,6 +83,7 @@ class BenchSettings:
     charging_v_per_h: float | tuple[float, ...] = 0.0
     gain_wander: float = 0.0
     phase_wander_deg: float = 0.0
+    start_s: float = 0.0
     seed: int | None = None
 
     @classmethod
@@ -130,7 +137,7 @@ class BenchSettings:
                 signed = key in _SIGNED
                 values[key] = _number(device, key, value, None if signed else 0.0)
         settings = cls(**values)
-        drifting = settings.drifts()
+        drifting = settings.drifts() + (["start_s"] if settings.start_s else [])
         if drifting and not settings.clock:
             raise ConfigError(
                 f"[device.bench] of device {device!r} sets {drifting[0]} but no clock: drifts "
@@ -186,10 +193,10 @@ class Bench:
             )
         self.charging_v_per_s = rate / _HOUR
         self._rng = np.random.default_rng(settings.seed)
-        #: The clock (seconds since the device was made).
-        self.now_s = 0.0
+        #: The clock (seconds since the drifts began: ``start_s`` when the device is made).
+        self.now_s = float(settings.start_s)
         self._walk_k = 0.0
-        self._walk_at_s = 0.0
+        self._walk_at_s = self.now_s
         self._last_bias: np.ndarray | None = None
 
     # ------------------------------------------------------------------ the clock

@@ -82,6 +82,27 @@ def test_a_replica_gives_the_gyro_at_an_earlier_time_stamp() -> None:
     assert abs(seen[-1][1] - seen[0][1]) > 1e-4  # the electrodes charged between the sweeps
 
 
+def test_a_later_start_meets_the_same_drifts_later() -> None:
+    """``start_s``: the clock starts there, the ramp and the charging as if they had run that
+    long; the gyro is the one a bench started at zero has at that time."""
+    drifts = {"temperature_ramp_k_per_h": 1.0, "charging_v_per_h": 0.5}
+    late, early = gyro(start_s=600.0, **drifts), gyro(**drifts)
+    t = late.measure(ZERO, F)["time_s"].values
+    np.testing.assert_allclose(t, 600.0 + late.settle_s + late.dwell_s * np.arange(1, F.size + 1))
+    np.testing.assert_allclose(
+        late.true_modal_frequencies_hz(ZERO),
+        early.true_modal_frequencies_hz(ZERO, at_s=late.time_s),
+        rtol=1e-12,
+    )
+    # the ramp alone: both modes moved by -30 ppm/K of the kelvins since zero, not since start
+    warm = gyro(start_s=600.0, temperature_ramp_k_per_h=1.0)
+    warm.measure(ZERO, F)
+    expected = CloverleafGyro(seed=1).true_modal_frequencies_hz(ZERO)
+    expected = expected * (1 - 30e-6 * warm.time_s / 3600.0)
+    np.testing.assert_allclose(warm.true_modal_frequencies_hz(ZERO), expected, rtol=1e-9)
+    assert warm.time_s > 600.0
+
+
 def test_charging_is_a_bias_offset_and_gain_wander_a_factor_per_sweep() -> None:
     charged = CloverleafGyro(seed=1, dac_bits=0, bench={"clock": True, "charging_v_per_h": 3.6})
     frozen = CloverleafGyro(seed=1, dac_bits=0)
@@ -113,6 +134,8 @@ def test_charging_is_a_bias_offset_and_gain_wander_a_factor_per_sweep() -> None:
         ({"clock": True, "temperature_walk_k_per_sqrt_h": -1.0}, "must be >= 0"),
         ({"clock": "yes"}, "true or false"),
         ({"clock": True, "charging_v_per_h": [0.1, 0.2]}, "one per electrode"),
+        ({"start_s": 600.0}, "sets start_s but no clock"),
+        ({"clock": True, "start_s": -1.0}, "start_s .* must be >= 0"),
         ("fast", "table of bench settings"),
     ],
 )

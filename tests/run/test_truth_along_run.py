@@ -35,3 +35,17 @@ def test_a_replica_reads_the_truth_the_run_ended_with(
     assert f"{record['true_end_split_hz'] * 1e3:.3g} mHz at the end" in line
     for name in ("drift_population", "truth_along_run"):
         sys.modules.pop(name, None)
+
+
+def test_a_population_starts_later_into_its_drifts(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``--start-min``: the same gyro and drifts, the bench's clock started that much later."""
+    monkeypatch.syspath_prepend(str(ROOT / "examples"))
+    import drift_population
+
+    late, options = drift_population.make_device(101, "lab", start_min=10.0)
+    early, _ = drift_population.make_device(101, "lab")
+    assert options["bench"]["start_s"] == 600.0
+    bias = [0.0] * len(late.electrodes)
+    t = late.measure(bias, [1000.0])["time_s"].values
+    assert t[0] > 600.0 and early.measure(bias, [1000.0])["time_s"].values[0] < 600.0
+    sys.modules.pop("drift_population", None)
