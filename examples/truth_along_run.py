@@ -37,10 +37,10 @@ def window_times(folder: Path) -> tuple[float, float] | None:
     return min(float(t.min()) for t in stamps), max(float(t.max()) for t in stamps)
 
 
-def rows(run: Path, seed: int, bench: str, draw: int = 0) -> list[dict]:
+def rows(run: Path, seed: int, bench: str, draw: int = 0, start_min: float = 0.0) -> list[dict]:
     """One record per verification with a window (see the module)."""
     summary = json.loads((run / "summary.json").read_text())
-    device, _ = make_device(seed, bench, draw=draw)
+    device, _ = make_device(seed, bench, draw=draw, start_min=start_min)
     found, previous = [], None
     for record in summary["history"]:
         it = int(record["iteration"])
@@ -72,6 +72,9 @@ def main() -> None:
     parser.add_argument("--seed", type=int, required=True)
     parser.add_argument("--bench", choices=sorted(BENCHES), default="lab")
     parser.add_argument("--draw", type=int, default=0)
+    parser.add_argument(
+        "--start-min", type=float, default=0.0, help="as the population run was given (0)"
+    )
     args = parser.parse_args()
     if not (args.run / "summary.json").is_file():
         parser.error(f"no summary.json in {args.run}; give a gyro's folder of drift_population")
@@ -81,7 +84,7 @@ def main() -> None:
 
     print("| iteration | window (h) | measured (mHz) | true, window's middle | true, earlier |")
     print("|---|---|---|---|---|")
-    for r in rows(args.run, args.seed, args.bench, args.draw):
+    for r in rows(args.run, args.seed, args.bench, args.draw, args.start_min):
         lo, hi = r["hours"]
         print(
             f"| {r['iteration']} ({r['verification']}) | {lo:.2f}-{hi:.2f} | "
