@@ -98,6 +98,7 @@ def locate(
     plan: SweepPlan,
     denser_points: int,
     probe: np.ndarray | None = None,
+    judge: bool = False,
 ) -> bool:
     """Measure ``tries`` in turn at one bias until a sweep shows both modes; True if quiet.
 
@@ -106,7 +107,8 @@ def locate(
     by windows around the modes its fit placed (:func:`~sysid_core.run.zoom.zoom_grid`, once).
     ``probe``: measured first, as ``path`` itself; it ends the search if it shows both modes
     and the bench is quiet (:data:`QUIET_NOISE`), else the tries follow. The return says
-    whether the first sweep measured showed both modes on a quiet bench.
+    whether the first sweep measured showed both modes on a quiet bench; without a probe it
+    is judged only if ``judge`` (the run's first look at the band), else False.
     """
     if probe is not None:
         data, model, evidence = sweep(probe, path, True)
@@ -136,7 +138,8 @@ def locate(
         name = f"{path.stem}{suffix}.nc"
         data, model, evidence = sweep(freqs, path.with_name(name), True)
         if evidence.ok:
-            return probe is None and not done and bench_noise(data, model) < QUIET_NOISE
+            first = judge and probe is None and not done
+            return first and bench_noise(data, model) < QUIET_NOISE
         done.append(freqs)
         zoom = None if zoomed else zoom_grid(freqs, evidence, plan, denser_points)
         then = ""

@@ -376,7 +376,7 @@ class LeanProtocol(Protocol):
         def sweep(freqs: np.ndarray, at: Path, band: bool) -> Found:
             return self.sweep(bias, freqs, at, band)
 
-        quiet = locate_modes(sweep, ctx.say, path, tries, ctx.plan, denser.size, probe)
+        quiet = locate_modes(sweep, ctx.say, path, tries, ctx.plan, denser.size, probe, looked)
         if looked:  # it decides the first design
             self.quiet = quiet
         if probe is not None and quiet:  # scouts too can locate modes with the probe's step
