@@ -63,18 +63,19 @@ class ModelConfig(_Strict):
 
     ``bias_terms`` (default 1) and ``stiffness`` (default ``"auto"``) are given to structures
     that take them (``act``, ``sen``); ``bias_terms = 0`` and ``stiffness = "linear"`` are the
-    paper's model. ``drift``: ``"none"`` (default); ``"common"``, ``"offsets"`` or ``"trend"``,
-    drift terms in the fit estimated from the measurements' time stamps
-    (:mod:`sysid_core.identification.drift`); ``"track"``, every answer solved for the gyro as
-    it will be at the next verification, the model anchored on the latest verified windows
-    (:mod:`sysid_core.run.tracking`). See docs/drift.md.
+    paper's model. ``drift``: ``"auto"`` (default), ``"track"`` once the measurements carry
+    time stamps (a bench with a clock) and ``"none"`` while they do not; ``"none"``;
+    ``"common"``, ``"offsets"`` or ``"trend"``, drift terms in the fit estimated from the
+    measurements' time stamps (:mod:`sysid_core.identification.drift`); ``"track"``, every
+    answer solved for the gyro as it will be at the next verification, the model anchored on
+    the latest verified windows (:mod:`sysid_core.run.tracking`). See docs/drift.md.
     """
 
     structure: str = "act"
     order: int = DEFAULT_ORDER
     bias_terms: int = DEFAULT_BIAS_TERMS
     stiffness: str = DEFAULT_STIFFNESS
-    drift: Literal["none", "common", "offsets", "trend", "track"] = "none"
+    drift: Literal["auto", "none", "common", "offsets", "trend", "track"] = "auto"
     options: dict[str, Any] = Field(default_factory=dict)
 
     def structure_options(self, accepted: Sequence[str]) -> dict[str, Any]:

@@ -53,7 +53,7 @@ from sysid_core.run.plots import PLOT_FORMATS, plot_bias_path, plot_iteration
 from sysid_core.run.protocols import RunContext, make_protocol
 from sysid_core.run.summary import IterationRecord, Least, RunSummary, least_measured, summarize
 from sysid_core.run.sweeps import SweepPlan
-from sysid_core.run.tracking import NEAR_ACCEPTANCES, Tracker
+from sysid_core.run.tracking import Tracker
 from sysid_core.run.verification import Verification
 from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion
 
@@ -63,10 +63,9 @@ __all__ = ["TuningRun"]
 class TuningRun:
     """One run of the tuning loop, writing everything into ``out``.
 
-    Building the run checks everything that can be checked without measuring (and writes
-    nothing): the configuration's plugins are created, the device's protocol attributes, the
-    start bias, the sweeps and the first experiment design are checked, and ``out`` must be
-    usable (empty for a new run; holding this run for ``resume``).
+    Building the run checks, without measuring or writing anything: the configuration's
+    plugins (created), the device's protocol attributes, the start bias, the sweeps, the first
+    design, and ``out`` (empty for a new run; holding this run for ``resume``).
 
     Parameters
     ----------
@@ -85,7 +84,7 @@ class TuningRun:
     plots : bool
         Write the plots (default true).
     plot_format : str
-        Their format: ``png`` (default), ``pdf`` or ``svg``.
+        ``png`` (default), ``pdf`` or ``svg``.
     from_model : FittedModel, optional
         A previous model of the same gyro (``--from-model``): no locating sweep and no design
         while its answers, anchored on the latest sweeps, bring the split down.
@@ -153,12 +152,8 @@ class TuningRun:
             trend="trend" in config.model.drift,
             twin_structure=parts.twin,
         )
-        #: With ``[model] drift = "track"``: the verified windows, and the model moved ahead.
-        self.tracker = (
-            Tracker(near_hz=NEAR_ACCEPTANCES * config.tuning.acceptance_hz)
-            if config.model.drift == "track"
-            else None
-        )
+        #: The verified windows and the model moved ahead (``drift = "track"`` or ``"auto"``).
+        self.tracker = Tracker.of(config.model.drift, config.tuning.acceptance_hz)
         plan = SweepPlan.from_config(config.experiment, dev.band_hz, tones=acquisition_tones)
         context = RunContext(config, self.space, plan, self.bench, self.fitter, self.say)
         context.design(self.space.start_bias)  # the first design: limits and rank condition
@@ -207,22 +202,22 @@ class TuningRun:
         bias = np.array(self.space.start_bias, dtype=float)
         summary = RunSummary.start(self.config.device.name, bias, self.space, str(self.out))
         history: list[IterationRecord] = []
-        path, regions = [bias.tolist()], []
+        path, regions, split = [bias.tolist()], [], 0.0
         center: float | None = None
-        split, aim = 0.0, aim_fraction(cfg.aim, self.tracker is not None)
         for it in range(1, cfg.max_iterations + 1):
             folder = self.out / f"iter{it:02d}"
             t0 = time.perf_counter()
             ds, model = self._identify(it, bias, folder, center, split)
             fit_time = time.perf_counter() - t0
-            now = model if self.tracker is None else self._track(it, model, ds)
+            aim = aim_fraction(cfg.aim, self.tracking)
+            now = self._track(it, model, ds) if self.tracking else model
             step = self._answer(it, now, bias, folder, least_measured(history))
             # the fit of every sweep, if the local one fell short
             now = step.model if step.model is not None else now
             regions.append(step.result.confidence)
             ver = self.protocol.verify(step.bias, step.result, now, folder)
             ver.model.save(folder / "verify-model.nc")
-            if self.tracker is not None:
+            if self.tracking and self.tracker is not None:
                 self.tracker.learned(ver)
             goals, converged, stop = verdict(
                 ver, now, self.criterion, self.fitter, cfg.acceptance_hz, aim
@@ -298,8 +293,15 @@ class TuningRun:
         model.save(folder / "model.nc")
         return ds, model
 
+    @property
+    def tracking(self) -> bool:
+        """``drift = "track"``, or ``"auto"`` once every measurement carried time stamps."""
+        return self.tracker is not None and (
+            self.config.model.drift == "track" or self.bench.clock_span_s is not None
+        )
+
     def _track(self, it: int, model: FittedModel, ds: xr.Dataset) -> FittedModel:
-        """The model moved to the next verification's time (``drift = "track"``)."""
+        """The model moved to the next verification's time (:attr:`tracking`)."""
         assert self.tracker is not None
         # the device's or the configuration's settling, else estimated from this fit's Q
         known = settle(self.bench.device.device, self.config.experiment.settle_s, model)[0]

@@ -86,6 +86,18 @@ class Tracker:
     #: The rates the last :meth:`now` found (common and split), or None.
     rates: OffsetDrift | None = None
 
+    @classmethod
+    def of(cls, drift: str, acceptance_hz: float) -> Tracker | None:
+        """The tracker of a run whose ``[model] drift`` is ``drift``, or None.
+
+        ``"track"`` and ``"auto"`` (which tracks only on a bench with a clock, the run's
+        choice) keep one; earlier windows anchor it when under :data:`NEAR_ACCEPTANCES`
+        acceptances.
+        """
+        if drift not in ("track", "auto"):
+            return None
+        return cls(near_hz=NEAR_ACCEPTANCES * acceptance_hz)
+
     def learned(self, ver: Verification) -> None:
         """Keep the verification's last window if it verified a split at known times.
 

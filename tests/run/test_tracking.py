@@ -66,6 +66,33 @@ def test_tracking_tunes_a_charging_gyro_that_the_average_model_cannot(tmp_path: 
     assert (tmp_path / "track2" / "iter03" / "model-now.nc").exists()
 
 
+def test_auto_tracks_on_a_bench_with_a_clock_and_not_without_one(tmp_path: Path) -> None:
+    """``drift = "auto"`` (the default): the run of ``"track"`` where the measurements carry
+    time stamps, the run of ``"none"`` where they do not (the same bias, no anchoring, no aim
+    below the acceptance)."""
+    auto, auto_summary, auto_lines = run(tmp_path, "auto")
+    track, track_summary, _ = run(tmp_path, "track")
+    assert auto_summary["bias"] == track_summary["bias"]
+    assert auto == track < ACCEPTANCE
+    assert any("anchored on" in line for line in auto_lines)
+
+    def frozen(drift: str | None) -> tuple[dict, list[str]]:
+        device = get_registry().device("random-gyro", seed=2, noise=1e-3)
+        model = {"structure": device.structure} | ({} if drift is None else {"drift": drift})
+        config = degenerate_config(device, {"seed": 2, "noise": 1e-3}, iterations=2, model=model)
+        lines: list[str] = []
+        out = tmp_path / f"frozen-{drift}"
+        tune(config, out, device=device, plots=False, progress=lines.append)
+        return json.loads((out / "summary.json").read_text()), lines
+
+    default, lines = frozen(None)
+    none, _ = frozen("none")
+    assert default["bias"] == none["bias"]
+    assert default["split_hz"] == none["split_hz"]
+    assert not any("anchored on" in line for line in lines)
+    assert not any("aiming at" in g["name"] for r in default["history"] for g in r["goals"])
+
+
 def test_a_stale_window_is_measured_again_and_gives_the_rates(tmp_path: Path) -> None:
     """Random gyro 103 (2.9 kHz, the lab's bench): the window verified at the first answer is
     older than the local design measured after it; measured again, the two windows of one bias
