@@ -10,14 +10,14 @@ A run that never gets there counts as never (an infinite time) in the percentile
 ``cloverleaf``: the simulated cloverleaf from ``--starts`` random starts in ±9 V on B1 and B2
 (start k uses seed k); ``random``: one random gyro per seed, from 0 V, first step 3 V, the
 model structure that matches its dynamics (``act`` or ``sen``, as in docs/random-gyro.md).
-Degenerate modes with B1 and B2, acceptance 1 mHz, up to 4 iterations. With ``--from-model``,
-each run starts from the last model of a previous run on the same gyro (from 0 V, other noise and
-drift; its own time is not counted). ``--model`` and ``--experiment`` add a ``[model]`` or
-``[experiment]`` table given as JSON (``--model '{"stiffness": "linear"}'``); ``--electrodes 3``
-tunes with B1, B2 and B3 (a gyro with two electrodes uses both). ``--draw K``
-(K ≥ 1) repeats the population with another draw of the noise and the drift: the same gyros
-and starts (the random gyro's ``noise_seed = K``; the cloverleaf's seed, which draws only its
-noise, and the bench's seed plus ``100000 K``).
+Degenerate modes with B1 and B2, acceptance 1 mHz, up to 4 iterations (``--iterations``). With
+``--from-model``, each run starts from the last model of a previous run on the same gyro (from
+0 V, other noise and drift; its own time is not counted). ``--model`` and ``--experiment`` add
+a ``[model]`` or ``[experiment]`` table given as JSON (``--model '{"stiffness": "linear"}'``);
+``--electrodes 3`` tunes with B1, B2 and B3 (a gyro with two electrodes uses both).
+``--draw K`` (K ≥ 1) repeats the population with another draw of the noise and the drift: the
+same gyros and starts (the random gyro's ``noise_seed = K``; the cloverleaf's seed, which
+draws only its noise, and the bench's seed plus ``100000 K``).
 
 After every measurement a recorder reads the TRUE split at that bias on the clock (the run never
 sees it). The time to 1 mHz is the clock at the end of the first verification of an answer
@@ -83,13 +83,14 @@ def _config(
     start: list[float],
     model: dict,
     electrodes: int = 2,
+    iterations: int = 4,
 ) -> dict:
     tuning = {
         "criterion": "degenerate",
         "electrodes": list(device.electrodes[: max(electrodes, 2)]),
         "start_bias": start,
         "acceptance_hz": ACCEPTANCE,
-        "max_iterations": 4,
+        "max_iterations": iterations,
     }
     if gyro == "random":
         experiment = {"bias_step": 3.0, **experiment}
@@ -124,11 +125,19 @@ class Population:
     model: dict = field(default_factory=dict)
     draw: int = 0
     electrodes: int = 2
+    iterations: int = 4
 
     def config(self, device: Any, options: dict, start: list[float]) -> dict:
         """The run's configuration for ``device`` from ``start``."""
         return _config(
-            self.gyro, device, options, self.experiment, start, self.model, self.electrodes
+            self.gyro,
+            device,
+            options,
+            self.experiment,
+            start,
+            self.model,
+            self.electrodes,
+            self.iterations,
         )
 
 
@@ -245,6 +254,7 @@ def main() -> None:
         default=2,
         help="tune with the first N electrodes (B1, B2, ...; a gyro with fewer uses all it has)",
     )
+    parser.add_argument("--iterations", type=int, default=4, help="max_iterations (4)")
     parser.add_argument("--label", default=None)
     parser.add_argument("--out", type=Path, default=Path("runs/clock-population"))
     parser.add_argument("--table", nargs="+", type=Path, help="rows of earlier outputs")
@@ -255,6 +265,8 @@ def main() -> None:
         parser.error(
             f"--electrodes must be at least 2 (degenerate modes need two), got {args.electrodes}"
         )
+    if args.iterations < 1:
+        parser.error(f"--iterations must be at least 1, got {args.iterations}")
     if args.table:
         for folder in args.table:
             lines = (folder / "runs.jsonl").read_text().splitlines()
@@ -273,7 +285,16 @@ def main() -> None:
             parser.error(f"--{flag} must be a JSON object, got {getattr(args, flag)}")
     experiment, model = tables["experiment"], tables["model"]
     which = list(range(1, args.starts + 1)) if args.gyro == "cloverleaf" else seeds(args.seeds)
-    pop = Population(args.gyro, args.tones, args.out, experiment, model, args.draw, args.electrodes)
+    pop = Population(
+        args.gyro,
+        args.tones,
+        args.out,
+        experiment,
+        model,
+        args.draw,
+        args.electrodes,
+        args.iterations,
+    )
     records = []
     with (args.out / "runs.jsonl").open("w") as log:
         for seed in which:

@@ -1,0 +1,61 @@
+"""examples/clock_population.py: the clocked study's options reach the runs they make."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _script(monkeypatch: pytest.MonkeyPatch) -> Any:
+    spec = importlib.util.spec_from_file_location(
+        "clock_population", ROOT / "examples" / "clock_population.py"
+    )
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, "clock_population", module)  # for its dataclasses
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_iterations_cap_every_run_of_the_population(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--iterations 1``: a random gyro far from degenerate stops after one iteration.
+
+    Gyro 205 with 8 tones starts about 0.3 Hz from degenerate at its first answer, so one
+    iteration cannot converge: the run's own count of iterations is the cap, not the default 4.
+    """
+    script = _script(monkeypatch)
+    out = tmp_path / "pop"
+    argv = ["clock_population.py", "--gyro", "random", "--tones", "8", "--seeds", "205"]
+    monkeypatch.setattr(sys, "argv", [*argv, "--iterations", "1", "--out", str(out)])
+    script.main()
+    (record,) = [json.loads(line) for line in (out / "runs.jsonl").read_text().splitlines()]
+    assert "error" not in record
+    assert record["iterations"] == 1
+    config = json.loads((out / "run205" / "config.json").read_text())["config"]
+    assert config["tuning"]["max_iterations"] == 1
+    assert "| random, 8 tone(s) |" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("value", ["0", "-2"])
+def test_iterations_below_one_are_refused_with_the_value(
+    value: str, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    script = _script(monkeypatch)
+    out = tmp_path / "never"
+    monkeypatch.setattr(
+        sys, "argv", ["clock_population.py", "--iterations", value, "--out", str(out)]
+    )
+    with pytest.raises(SystemExit) as exc:
+        script.main()
+    assert exc.value.code == 2
+    assert f"--iterations must be at least 1, got {value}" in capsys.readouterr().err
+    assert not out.exists()
