@@ -143,14 +143,8 @@ class TuningRun:
             owns_device=device is None,
             tones=acquisition_tones,
         )
-        self.fitter = Fitter(
-            self.structure,
-            self.objective,
-            self.solver,
-            drift=config.model.drift == "common",
-            offsets="offsets" in config.model.drift,
-            trend="trend" in config.model.drift,
-            twin_structure=parts.twin,
+        self.fitter = Fitter.of(
+            config.model.drift, self.structure, self.objective, self.solver, parts.twin
         )
         #: The verified windows and the model moved ahead (``drift = "track"`` or ``"auto"``).
         self.tracker = Tracker.of(config.model.drift, config.tuning.acceptance_hz)
@@ -290,6 +284,9 @@ class TuningRun:
                 else f" ({model.meta.get('law_test')})"
             )
             self.say(f"iteration {it}: stiffness law {law}{test}")
+        if self.fitter.tracked and "drift_trend" in model.meta:
+            hours = float(model.meta.get("time_span_s", 0.0)) / 3600.0
+            self.say(f"iteration {it}: the sweeps span {hours:.2g} h; the fit carries their trend")
         model.save(folder / "model.nc")
         return ds, model
 
