@@ -46,7 +46,7 @@ from sysid_core.run.locating import probe_points
 from sysid_core.run.passes import repeat_window
 from sysid_core.run.previous import PreviousModel
 from sysid_core.run.sweeps import SweepPlan
-from sysid_core.run.verification import COARSE_ENOUGH, Verification, Window, verify
+from sysid_core.run.verification import COARSE_ENOUGH, Verification, Window, modes_at, verify
 from sysid_core.tuning.criteria import ConfidenceRegion, TuningResult
 
 __all__ = ["FullProtocol", "LeanProtocol", "Prefit", "Protocol", "RunContext", "make_protocol"]
@@ -127,7 +127,7 @@ class Protocol(ABC):
         ) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
             return self.sweep(bias, freqs, folder / name, band, enough)
 
-        modes = model.modal(bias[self.ctx.space.index])
+        modes = modes_at(model, bias[self.ctx.space.index])
         return verify(modes, predicted, plan, sweep, self.ctx.say, lean=lean)
 
 
@@ -237,7 +237,9 @@ class LeanProtocol(Protocol):
         self, bias: np.ndarray, predicted: TuningResult, model: FittedModel, folder: Path
     ) -> Verification:
         """Step 4 at ``bias``, locating the modes with grids around the predicted ones."""
-        modes = model.modal(bias[self.ctx.space.index])
+        modes = modes_at(model, bias[self.ctx.space.index])
+        if modes is None:  # no oscillating modes at the answer: the band locates them
+            return self._verify_with(bias, predicted, model, folder, self.locate_plan)
         bw = modes.bandwidth_hz
         if not np.all(np.isfinite(bw) & (bw > 0)):
             bw = np.full(2, self.ctx.plan.verify_resolution_hz)

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
+from sysid_core.errors import ModelError
 from sysid_core.identification.objective import Progress
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import ModalReport
@@ -29,7 +30,15 @@ from sysid_core.run.evidence import WindowAssessment
 from sysid_core.run.sweeps import SweepPlan
 from sysid_core.tuning.criteria import TuningResult
 
-__all__ = ["COARSE_ENOUGH", "MAX_FINE", "Sweep", "Verification", "Window", "verify"]
+__all__ = [
+    "COARSE_ENOUGH",
+    "MAX_FINE",
+    "Sweep",
+    "Verification",
+    "Window",
+    "modes_at",
+    "verify",
+]
 
 #: Measures a sweep at the verified bias and fits it: ``(frequencies, file name, whole band?)``
 #: to ``(sweep, single-bias model, evidence)``.
@@ -103,8 +112,21 @@ class Verification:
         return "no sweep showed both modes: " + self.windows[-1].failures()
 
 
+def modes_at(model: FittedModel, w: np.ndarray) -> ModalReport | None:
+    """The model's modes at the tuned biases ``w``, or None where none of them oscillates.
+
+    A model extrapolated far from its sweeps can answer at a bias where its stiffness is not
+    positive definite (random gyro 112 at 60 dB, whose fits never saw both modes: predicted
+    modes of 0 and 1436 Hz); the band then has to find the modes (:func:`verify`).
+    """
+    try:
+        return model.modal(w)
+    except ModelError:
+        return None
+
+
 def verify(
-    predicted_modes: ModalReport,
+    predicted_modes: ModalReport | None,
     predicted: TuningResult,
     plan: SweepPlan,
     sweep: Sweep,
@@ -115,8 +137,9 @@ def verify(
 
     Parameters
     ----------
-    predicted_modes : ModalReport
-        The identified model's modes at the bias (their bandwidths size the first window).
+    predicted_modes : ModalReport or None
+        The identified model's modes at the bias (their bandwidths size the first window);
+        None where the model has no oscillating modes there: the band locates them.
     predicted : TuningResult
         The criterion's answer (predicted frequencies and split).
     plan : SweepPlan
@@ -132,7 +155,7 @@ def verify(
         ``seen`` the bandwidths that sweep's fit measured (or None).
     """
     rep = predicted_modes
-    bw = rep.bandwidth_hz
+    bw = rep.bandwidth_hz if rep is not None else np.full(2, np.nan)
     bw_min = float(np.min(bw)) if np.all(np.isfinite(bw) & (bw > 0)) else np.inf
     bw_max = float(np.max(bw)) if np.isfinite(bw_min) else 0.0
 
@@ -150,7 +173,9 @@ def verify(
     def narrow(freqs: np.ndarray, stem: str) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
         return _narrow(freqs, stem, sweep, window, say, windows)
 
-    if predicted.split_hz < plan.verify_span_hz:
+    if rep is None:
+        say("verification: the model has no oscillating modes at this bias; sweeping the band")
+    elif predicted.split_hz < plan.verify_span_hz:
         swept, vmodel, ev = narrow(window(predicted.frequency_hz, predicted.split_hz), "verify")
         if ev.ok:
             return Verification("verified", ev.frequencies_hz, windows, swept, vmodel)

@@ -13,12 +13,15 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+from sysid_models import ActStructure
+from truths import cloverleaf_truth
 
+from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import ModalReport
 from sysid_core.run.evidence import Check, WindowAssessment
 from sysid_core.run.lean import FINE_STEP, ModeGuess, mode_grid
 from sysid_core.run.sweeps import SweepPlan
-from sysid_core.run.verification import Verification, verify
+from sysid_core.run.verification import Verification, modes_at, verify
 from sysid_core.tuning.criteria import TuningResult
 
 PLAN = SweepPlan((3540.0, 3690.0), 2.5, 6.0, 0.05, 1.0, 0.01, 20_000)
@@ -84,3 +87,46 @@ def test_a_fine_grid_resolves_the_narrowest_bandwidth_it_is_given() -> None:
         near = grid[np.abs(grid - MODES.mean()) <= 0.08 + 1e-9]
         assert np.max(np.diff(near)) <= limit + 1e-9
     assert second.size > first.size
+
+
+def test_an_answer_where_the_model_has_no_oscillating_modes_sweeps_the_band() -> None:
+    """Random gyro 112 at 60 dB (draw 1): a model extrapolated from sweeps that never showed both
+    modes answered where its stiffness was not positive definite (predicted modes 0 and 1436 Hz),
+    and the run stopped with an error; now the band locates the modes."""
+    script = [
+        _evidence(2.5, 0.04, True, band=True),  # the band locates the modes
+        _evidence(0.02, 0.04, True),  # a window around them verifies
+    ]
+    names: list[str] = []
+    lines: list[str] = []
+
+    def sweep(freqs: np.ndarray, name: str, band: bool) -> tuple[xr.Dataset, Any, WindowAssessment]:
+        names.append(name)
+        return xr.Dataset(), None, script[len(names) - 1]
+
+    answer = TuningResult(np.zeros(2), np.zeros(2), MODES, 0.0, "degenerate", 0.0)  # "tuned"
+    found = verify(None, answer, PLAN, sweep, lines.append)
+    assert names == ["verify-band.nc", "verify-2.nc"]
+    assert found.status == "verified"
+    assert "no oscillating modes" in lines[0]
+
+
+def test_modes_at_is_none_where_the_stiffness_is_not_positive_definite() -> None:
+    truth = cloverleaf_truth()
+    kp = np.array(truth.Kp, dtype=float)
+    kp[0] = -truth.K0 / 200.0  # B1 softens both modes by K0 / 200 per V² of (v - v_gyro)²
+    model = FittedModel(
+        structure=ActStructure(2),
+        M=truth.M,
+        C=truth.C,
+        K0=truth.K0,
+        Kp=kp,
+        poly=np.zeros((3, 2, 2), dtype=complex),
+        omega_center=2 * np.pi * 4415.0,
+        omega_half=2 * np.pi * 30.0,
+        electrodes=list(truth.electrodes),
+        structure_potential=truth.structure_potential,
+    )
+    near = modes_at(model, np.array([9.0, 0.0]))  # (9 - 15.58)² = 43 V²: K0 (1 - 0.22)
+    assert near is not None and np.all(near.frequencies_hz > 0)
+    assert modes_at(model, np.array([-9.0, 0.0])) is None  # 604 V²: K0 (1 - 3.0)
