@@ -296,10 +296,10 @@ def windows_split(
 
     :meth:`Tracker.now` passes the latest window that gives its own split, alone: the windows
     sit at different biases and times, and the orientations of their own splits differ, so
-    that their mean moved random gyro 313 (8.6 kHz, lab) by 1.0-1.4 mHz
-    where its model lacked about 3, and the run ended at 4.0 mHz; with the latest window alone
-    it ends at 1.0 mHz. The four lab sets (docs/drift.md), 8 iterations, draws 0-2: 253 of 288
-    within 2 mHz against 244 with the mean of up to four windows.
+    that their mean moved random gyro 313 (8.6 kHz, lab) by 1.0-1.4 mHz where its model lacked
+    about 3, and the run ended at 4.0 mHz; with the latest window alone it ends at 1.0 mHz.
+    The four lab sets (docs/drift.md), 8 iterations, draws 0-2: 253 of 288 within 2 mHz
+    against 244 with the mean of up to four windows.
     """
     offsets, variances = [], []
     for sweep, own in windows:
