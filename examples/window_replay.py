@@ -1,0 +1,218 @@
+"""Replay a tracked run's windows: which way of combining them predicts the next split best.
+
+    python examples/drift_population.py --bench lab --drift track --seeds 101-124 --iterations 8
+    python examples/window_replay.py runs/drift-population
+
+For every gyro of a population run (its folder, of ``examples/drift_population.py``; ``--draw``
+the draw it was run with) and every iteration after which the run's latest verified window and
+at least one earlier one measured a split under ten acceptances
+(:data:`sysid_core.run.tracking.NEAR_ACCEPTANCES`), each way below predicts the split *vector*
+at the next verification's bias and middle time, and a replica of the run's device gives the
+TRUE one there (charging and the ramp are functions of the clock; the replica's temperature walk
+is another draw, and the simulated temperature scales the whole stiffness, which leaves the split
+as it is). The split vector is the deviation ``d`` of the normalised stiffness
+``M^{-1/2} K M^{-1/2}`` (eigenvalues ``t ± |d|``) as ``d / (2π √t)``: its length is the split
+in Hz, its direction the modes' orientation. The ways:
+
+* ``tracker``: the run's own answer model (the next iteration's ``model-now.nc``: its fit
+  anchored on up to four windows, moved by the latest window's own split when that is beyond
+  its noise; :class:`sysid_core.run.tracking.Tracker`);
+* ``anchor``: the next iteration's fit anchored on the latest window alone;
+* ``latest``: that, given the latest window's own split
+  (:func:`sysid_core.identification.anchor.split_offset`), always;
+* ``mean-3``: given the mean of the three latest windows' own splits, each against the
+  anchored model at its own time and bias;
+* ``weighted-60s``: their mean over every window, weighted by ``exp(−age / 60 s)``;
+* ``rate``: a straight line in time through every window's, taken to the next window's time.
+
+One table row per way, over the gyros under and over 8 kHz: the root mean square, median and 90th
+percentile of the vector error (mHz) and the shares of predictions within 1 and 2 mHz. A window
+averaged over passes (``max_passes``) is replayed as its last pass.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from drift_population import make_device
+
+from sysid_core.api import load_model
+from sysid_core.data.schema import load_dataset
+from sysid_core.identification.anchor import anchor, split_offset
+from sysid_core.model.fitted import FittedModel
+from sysid_core.model.modal import normalised_stiffness, trace_deviation
+from sysid_core.run.tracking import NEAR_ACCEPTANCES
+
+WAYS = ["tracker", "anchor", "latest", "mean-3", "weighted-60s", "rate"]
+#: A gyro at this frequency or over is fast (Hz).
+FAST_HZ = 8000.0
+
+
+def split_vector(m: Any, k: Any) -> np.ndarray:
+    """The split vector (mHz) of mass ``m`` and stiffness ``k`` (see the module)."""
+    ns = normalised_stiffness(np.asarray(m, float)[None], np.asarray(k, float)[None])
+    t, d = trace_deviation(ns[0])
+    return np.asarray(d, dtype=float) / (2 * np.pi * np.sqrt(t)) * 1e3
+
+
+def _times(ds: xr.Dataset) -> np.ndarray:
+    t = np.asarray(ds["time_s"].values, dtype=float).ravel()
+    return t[np.isfinite(t)]
+
+
+@dataclasses.dataclass
+class Window:
+    """One iteration's verified window: the sweep, its own model, its split (Hz)."""
+
+    iteration: int
+    sweep: xr.Dataset
+    own: FittedModel
+    split_hz: float
+
+
+def windows(folder: Path) -> dict[int, Window]:
+    """Each verified iteration's latest window (by its time stamps)."""
+    summary = json.loads((folder / "summary.json").read_text())
+    found = {}
+    for h in summary["history"]:
+        it, there = h["iteration"], folder / f"iter{h['iteration']:02d}"
+        if h.get("verification") != "verified" or h.get("measured_split_hz") is None:
+            continue
+        sweeps = [load_dataset(p) for p in there.glob("verify*.nc") if "model" not in p.name]
+        sweeps = [s for s in sweeps if "time_s" in s and _times(s).size]
+        if not sweeps or not (there / "verify-model.nc").exists():
+            continue
+        last = max(sweeps, key=lambda s: float(_times(s).max()))
+        own = load_model(there / "verify-model.nc")
+        found[it] = Window(it, last, own, float(h["measured_split_hz"]))
+    return found
+
+
+def _line(t: np.ndarray, y: np.ndarray, w: np.ndarray, at: float) -> np.ndarray:
+    """Weighted least squares ``y ≈ a + b (t − t[-1])`` (each column of ``y``), at ``at``."""
+    x = np.c_[np.ones_like(t), t - t[-1]]
+    beta = np.linalg.lstsq(x * np.sqrt(w)[:, None], y * np.sqrt(w)[:, None], rcond=None)[0]
+    return beta[0] + beta[1] * (at - t[-1])
+
+
+def predictions(
+    model: FittedModel, now: FittedModel | None, near: list[Window], bias: np.ndarray, at: float
+) -> dict[str, np.ndarray]:
+    """Each way's split vector (mHz) at ``bias`` (the model's electrodes) and time ``at``."""
+    latest = near[-1]
+    found = anchor(model, [latest.sweep], rate=False)
+    base = found.model_at(model, at)
+    offsets = np.array(
+        [
+            split_offset(found.model_at(model, float(_times(w.sweep).mean())), w.sweep, w.own)
+            for w in near
+        ]
+    )
+    ages = np.array([float(_times(w.sweep).mean()) for w in near])
+
+    def given(offset: np.ndarray) -> np.ndarray:
+        return split_vector(base.M, np.asarray(base.stiffness(bias)) + offset)
+
+    flat = offsets.reshape(len(near), -1)
+    weights = np.exp(-(ages[-1] - ages) / 60.0)
+    out = {
+        "anchor": given(np.zeros((2, 2))),
+        "latest": given(offsets[-1]),
+        "mean-3": given(offsets[-3:].mean(axis=0)),
+        "weighted-60s": given((weights @ flat / weights.sum()).reshape(2, 2)),
+        "rate": given(_line(ages, flat, np.ones_like(ages), at).reshape(2, 2))
+        if len(near) > 2
+        else given(offsets[-1]),
+    }
+    if now is not None:
+        out["tracker"] = split_vector(now.M, now.stiffness(bias))
+    return out
+
+
+def replay(folder: Path, device: Any, acceptance_hz: float = 0.002) -> list[dict[str, float]]:
+    """The vector error (mHz) of each way at each replayed iteration of the run in ``folder``.
+
+    ``device``: a replica of the run's simulated device. Each row also holds ``true``, the
+    length of the true split vector there (mHz), and ``iteration``.
+    """
+    found = windows(folder)
+    rows = []
+    for it in sorted(found):
+        nxt = found.get(it + 1)
+        near = [w for i, w in sorted(found.items()) if i <= it]
+        near = [w for w in near if w.split_hz <= NEAR_ACCEPTANCES * acceptance_hz]
+        if nxt is None or len(near) < 2 or near[-1].iteration != it:
+            continue
+        there = folder / f"iter{it + 1:02d}"
+        model = load_model(there / "model.nc")
+        now = load_model(there / "model-now.nc") if (there / "model-now.nc").exists() else None
+        bias = np.asarray(nxt.sweep["bias"].values[0], dtype=float)
+        tuned = np.asarray(nxt.sweep.sel(electrode=list(model.electrodes))["bias"].values[0])
+        at = float(_times(nxt.sweep).mean())
+        k = device._drifted_stiffness(device.applied_bias(bias), np.array([at]))[0]
+        true = split_vector(device.truth.M, k)
+        row: dict[str, float] = {"iteration": float(it), "true": float(np.hypot(*true))}
+        for way, vector in predictions(model, now, near, tuned, at).items():
+            row[way] = float(np.hypot(*(vector - true)))
+        rows.append(row)
+    return rows
+
+
+def table(rows: dict[str, list[dict[str, float]]], frequency_hz: dict[str, float]) -> str:
+    """The markdown table of the module over ``rows`` (per gyro)."""
+    lines = [
+        "| way | gyros | predictions | error rms / median / 90 % (mHz) | within 1 mHz "
+        "| within 2 mHz |",
+        "|---|---|---|---|---|---|",
+    ]
+    kinds: list[tuple[str, Callable[[float], bool]]] = [
+        ("under 8 kHz", lambda f: f < FAST_HZ),
+        ("8 kHz or more", lambda f: f >= FAST_HZ),
+    ]
+    for way in WAYS:
+        for label, keep in kinds:
+            e = np.array(
+                [r[way] for g, rs in rows.items() if keep(frequency_hz[g]) for r in rs if way in r]
+            )
+            if not e.size:
+                continue
+            rms = float(np.sqrt(np.mean(e**2)))
+            lines.append(
+                f"| `{way}` | {label} | {e.size} | {rms:.2f} / {np.median(e):.2f} / "
+                f"{np.percentile(e, 90):.2f} | {np.mean(e < 1):.0%} | {np.mean(e < 2):.0%} |"
+            )
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("runs", type=Path, help="a folder of examples/drift_population.py")
+    parser.add_argument("--draw", type=int, default=0, help="the draw the runs were made with")
+    parser.add_argument("--bench", default="lab", help="the bench the runs were made on")
+    args = parser.parse_args()
+    gyros = sorted(args.runs.glob("gyro*/summary.json"))
+    if not gyros:
+        raise SystemExit(f"{args.runs} holds no gyro*/summary.json: run drift_population.py")
+    rows, frequency = {}, {}
+    for path in gyros:
+        seed = int(path.parent.name.removeprefix("gyro"))
+        device, _ = make_device(seed, args.bench, draw=args.draw)
+        rows[str(seed)] = replay(path.parent, device)
+        frequency[str(seed)] = float(json.loads(path.read_text())["frequency_hz"] or 0.0)
+        print(f"gyro {seed}: {len(rows[str(seed)])} predictions replayed", flush=True)
+    print(table(rows, frequency))
+
+
+if __name__ == "__main__":
+    main()
