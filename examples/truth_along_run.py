@@ -10,6 +10,11 @@ true split at the window's middle, and the true split at the same bias an iterat
 two windows). The temperature's random walk of the replica is another draw (the split moves
 by its differential tempco, 0.5 ppm/K, about 0.5 mHz per kelvin at 1 kHz); the ramp and the
 charging are the run's.
+
+``--slopes`` prints instead, per iteration, how the split vector (its length the split, its
+direction the modes' orientation: ``examples/window_replay.py``) moves per volt of B1 and of
+B2 at the iteration's answer: the slopes of that iteration's fit (``model.nc``, its stiffness
+law, and whether it carries the trend of a long run) beside the truth's at the window's middle.
 """
 
 from __future__ import annotations
@@ -21,6 +26,12 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 from drift_population import BENCHES, make_device
+from window_replay import split_vector
+
+from sysid_core.api import load_model
+
+#: The bias step of the slopes' central differences (V).
+SLOPE_STEP_V = 0.01
 
 
 def window_times(folder: Path) -> tuple[float, float] | None:
@@ -65,6 +76,49 @@ def rows(run: Path, seed: int, bench: str, draw: int = 0, start_min: float = 0.0
     return found
 
 
+def slopes(run: Path, seed: int, bench: str, draw: int = 0) -> list[dict]:
+    """Per iteration with a window, the split vector's slopes in B1 and B2 (mHz/V, columns):
+    the iteration's fit's (``model``) and the truth's (``true``); see the module."""
+    summary = json.loads((run / "summary.json").read_text())
+    device, _ = make_device(seed, bench, draw=draw)
+    found = []
+    for record in summary["history"]:
+        it = int(record["iteration"])
+        times = window_times(run / f"iter{it:02d}")
+        if times is None:
+            continue
+        model = load_model(run / f"iter{it:02d}" / "model.nc")
+        bias = np.asarray(record["tuning"]["bias"], dtype=float)
+        tuned = bias[[list(summary["electrodes"]).index(e) for e in model.electrodes]]
+        at = np.array([0.5 * (times[0] + times[1])])
+        fitted, true = np.zeros((2, 2)), np.zeros((2, 2))
+        for j in range(2):
+            step = np.zeros(bias.size)
+            step[list(summary["electrodes"]).index(model.electrodes[j])] = SLOPE_STEP_V
+            up, down = tuned.copy(), tuned.copy()
+            up[j] += SLOPE_STEP_V
+            down[j] -= SLOPE_STEP_V
+            fitted[:, j] = (
+                split_vector(model.M, model.stiffness(up))
+                - split_vector(model.M, model.stiffness(down))
+            ) / (2 * SLOPE_STEP_V)
+            k_up = device._drifted_stiffness(bias + step, at)[0]
+            k_down = device._drifted_stiffness(bias - step, at)[0]
+            true[:, j] = (
+                split_vector(device.truth.M, k_up) - split_vector(device.truth.M, k_down)
+            ) / (2 * SLOPE_STEP_V)
+        found.append(
+            {
+                "iteration": it,
+                "law": str(model.meta.get("stiffness_law", model.structure.stiffness)),
+                "trend": "drift_trend" in model.meta,
+                "model": fitted,
+                "true": true,
+            }
+        )
+    return found
+
+
 def main() -> None:
     """Parse the arguments and print the table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -75,9 +129,22 @@ def main() -> None:
     parser.add_argument(
         "--start-min", type=float, default=0.0, help="as the population run was given (0)"
     )
+    parser.add_argument(
+        "--slopes", action="store_true", help="the split's slopes in B1 and B2, fit and truth"
+    )
     args = parser.parse_args()
     if not (args.run / "summary.json").is_file():
         parser.error(f"no summary.json in {args.run}; give a gyro's folder of drift_population")
+    if args.slopes:
+        print("| iteration | law | trend | fit: per V of B1, of B2 (mHz) | truth (mHz) |")
+        print("|---|---|---|---|---|")
+        for r in slopes(args.run, args.seed, args.bench, args.draw):
+            fit, true = (
+                ", ".join(f"({c[0]:.0f}, {c[1]:.0f})" for c in r[k].T) for k in ("model", "true")
+            )
+            trend = "yes" if r["trend"] else "no"
+            print(f"| {r['iteration']} | {r['law']} | {trend} | {fit} | {true} |")
+        return
 
     def mhz(v: float | None) -> str:
         return "-" if v is None else f"{v:.3g}"

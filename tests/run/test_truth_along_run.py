@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -29,11 +30,17 @@ def test_a_replica_reads_the_truth_the_run_ended_with(
         assert abs(r["measured_mhz"] - r["true_mhz"]) < 3.0
     assert verified[-1]["true_mhz"] == pytest.approx(record["true_end_split_hz"] * 1e3, abs=0.3)
     assert found[0]["true_earlier_mhz"] is None and verified[-1]["true_earlier_mhz"] is not None
+    # the fit's slopes of the split in B1 and B2 at the last answer are the truth's, and the
+    # truth's are measured on the replica, not copied from the fit
+    last = truth_along_run.slopes(tmp_path / "gyro110", 110, "good")[-1]
+    size = np.linalg.norm(last["true"])
+    assert np.linalg.norm(last["model"] - last["true"]) < 0.2 * size
+    assert not np.array_equal(last["model"], last["true"])
     # the population's progress line says the same end
     line = drift_population.progress(record, 3, 24)
     assert line.startswith("[3/24] gyro 110: 23.7 kHz")
     assert f"{record['true_end_split_hz'] * 1e3:.3g} mHz at the end" in line
-    for name in ("drift_population", "truth_along_run"):
+    for name in ("drift_population", "truth_along_run", "window_replay"):
         sys.modules.pop(name, None)
 
 
