@@ -59,12 +59,14 @@ RESONANCE_RATIO = 1.5
 LAW_CONDITION_LIMIT = 1e10
 
 
-#: Why a fit that carries the stiffness trend keeps the linear law. A long run's answers follow
-#: the charging, so its biases move with time and quadratic terms take up what the trend leaves
-#: of the drift: measured on slow random gyros in the uncontrolled lab (docs/drift.md, "Long
-#: runs"), the quadratic fits' Wald statistic rose over a run (gyro 116: 6.5 to 58-94 against
-#: 13.3) while their slope of the split in B1 and B2 left the truth's (116: 50 % off; 512,
-#: draw 1: one entry's sign turned, and its answers ran away to a 50 mHz split).
+#: Why a tracked run's fit over more than an hour, which carries the stiffness trend, keeps the
+#: linear law (``linear_trend``). Its answers follow the charging, so its biases move with time
+#: and quadratic terms take up what the trend leaves of the drift: measured on slow random gyros
+#: in the uncontrolled lab (docs/drift.md, "Long runs"), the quadratic fits' Wald statistic
+#: rose over a run (gyro 116: 6.5 to 58-94 against 13.3) while their slopes of the split in B1
+#: and B2 left the truth's (116: 50 % off; 512, draw 1: a sign turned, and its answers ran away
+#: to a 50 mHz split). An explicit ``drift = "trend"`` carries the trend from the second
+#: iteration on, where the quadratic law is still needed: it keeps the test.
 TREND_LAW = "the fit carries the trend: linear law, the quadratic terms would take up drift"
 
 
@@ -79,6 +81,7 @@ def fit_structure(
     trend: bool = False,
     mass_shape: np.ndarray | None = None,
     point_weights: np.ndarray | None = None,
+    linear_trend: bool = False,
 ) -> tuple[FittedModel, list[str]]:
     """Fit ``structure`` to ``dataset`` with ``objective`` and ``solver``.
 
@@ -94,6 +97,7 @@ def fit_structure(
     latest epoch. ``trend``: a stiffness trend in time, the model is the gyro at the latest time
     stamp (data without time stamps at every point are fitted without). ``point_weights``: a
     weight per measured point (:class:`~sysid_core.identification.problem.FitProblem`).
+    ``linear_trend``: with the trend, the ``auto`` law is linear (:data:`TREND_LAW`).
     """
     notes: list[str] = []
     rate = 0.0
@@ -105,7 +109,12 @@ def fit_structure(
     elif drift is not False:
         rate = float(drift) if has_time_stamps(dataset) else 0.0
     timing = Timing(rate, offsets, trend and has_time_stamps(dataset), mass_shape, point_weights)
-    if getattr(structure, "stiffness", "linear") == "auto":
+    if getattr(structure, "stiffness", "linear") == "auto" and linear_trend and timing.trend:
+        linear = copy.copy(structure)
+        linear.stiffness = "linear"
+        model = _fit_one(dataset, linear, objective, solver, progress, timing)
+        model.meta.update(stiffness_law="linear", law_test=TREND_LAW)
+    elif getattr(structure, "stiffness", "linear") == "auto":
         model = _fit_auto_law(dataset, structure, objective, solver, progress, timing)
     else:
         model = _fit_one(dataset, structure, objective, solver, progress, timing)
@@ -182,18 +191,11 @@ def _fit_auto_law(
     :data:`LAW_TEST_LEVEL`; otherwise (or without a covariance, or with a one-sided design) the
     linear law is fitted to the same data. ``model.meta["stiffness_law"]`` says which, with the
     statistic and the threshold.
-
-    A fit that carries the stiffness trend (``timing.trend``: a tracked run's sweeps over more
-    than an hour) keeps the linear law without a test (:data:`TREND_LAW`).
     """
     import scipy.stats
 
     linear, quadratic = copy.copy(structure), copy.copy(structure)
     linear.stiffness, quadratic.stiffness = "linear", "quadratic"
-    if timing.trend:
-        model = _fit_one(dataset, linear, objective, solver, progress, timing)
-        model.meta.update(stiffness_law="linear", law_test=TREND_LAW)
-        return model
     bias = np.asarray(dataset["bias"].values, dtype=float)
     vg = float(dataset.attrs["structure_potential"])
     try:
