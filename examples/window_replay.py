@@ -3,9 +3,10 @@
     python examples/drift_population.py --bench lab --drift track --seeds 101-124 --iterations 8
     python examples/window_replay.py runs/drift-population
 
-For every gyro of a population run (its folder, of ``examples/drift_population.py``; ``--draw``
-the draw it was run with) and every iteration after which the run's latest verified window and
-at least one earlier one measured a split under ten acceptances
+For every gyro of a population run (its folder, of ``examples/drift_population.py``; several
+folders make one table; ``--draw`` the draw they were run with) and every iteration after which
+the run's latest verified window and at least one earlier one measured a split under ten
+acceptances
 (:data:`sysid_core.run.tracking.NEAR_ACCEPTANCES`), each way below predicts the split *vector*
 at the next verification's bias and middle time, and a replica of the run's device gives the
 TRUE one there (charging and the ramp are functions of the clock; the replica's temperature walk
@@ -197,13 +198,16 @@ def table(rows: dict[str, list[dict[str, float]]], frequency_hz: dict[str, float
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("runs", type=Path, help="a folder of examples/drift_population.py")
+    parser.add_argument(
+        "runs", type=Path, nargs="+", help="folders of examples/drift_population.py"
+    )
     parser.add_argument("--draw", type=int, default=0, help="the draw the runs were made with")
     parser.add_argument("--bench", default="lab", help="the bench the runs were made on")
     args = parser.parse_args()
-    gyros = sorted(args.runs.glob("gyro*/summary.json"))
+    gyros = [path for runs in args.runs for path in sorted(runs.glob("gyro*/summary.json"))]
     if not gyros:
-        raise SystemExit(f"{args.runs} holds no gyro*/summary.json: run drift_population.py")
+        names = " ".join(str(runs) for runs in args.runs)
+        raise SystemExit(f"{names}: no gyro*/summary.json; run examples/drift_population.py")
     rows, frequency = {}, {}
     for path in gyros:
         seed = int(path.parent.name.removeprefix("gyro"))
