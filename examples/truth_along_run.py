@@ -89,18 +89,16 @@ def slopes(run: Path, seed: int, bench: str, draw: int = 0) -> list[dict]:
             continue
         model = load_model(run / f"iter{it:02d}" / "model.nc")
         bias = np.asarray(record["tuning"]["bias"], dtype=float)
-        tuned = bias[[list(summary["electrodes"]).index(e) for e in model.electrodes]]
+        index = [list(summary["electrodes"]).index(e) for e in model.electrodes]
+        tuned = bias[index]
         at = np.array([0.5 * (times[0] + times[1])])
         fitted, true = np.zeros((2, 2)), np.zeros((2, 2))
         for j in range(2):
             step = np.zeros(bias.size)
-            step[list(summary["electrodes"]).index(model.electrodes[j])] = SLOPE_STEP_V
-            up, down = tuned.copy(), tuned.copy()
-            up[j] += SLOPE_STEP_V
-            down[j] -= SLOPE_STEP_V
+            step[index[j]] = SLOPE_STEP_V
             fitted[:, j] = (
-                split_vector(model.M, model.stiffness(up))
-                - split_vector(model.M, model.stiffness(down))
+                split_vector(model.M, model.stiffness(tuned + step[index]))
+                - split_vector(model.M, model.stiffness(tuned - step[index]))
             ) / (2 * SLOPE_STEP_V)
             k_up = device._drifted_stiffness(bias + step, at)[0]
             k_down = device._drifted_stiffness(bias - step, at)[0]

@@ -109,13 +109,8 @@ def fit_structure(
     elif drift is not False:
         rate = float(drift) if has_time_stamps(dataset) else 0.0
     timing = Timing(rate, offsets, trend and has_time_stamps(dataset), mass_shape, point_weights)
-    if getattr(structure, "stiffness", "linear") == "auto" and linear_trend and timing.trend:
-        linear = copy.copy(structure)
-        linear.stiffness = "linear"
-        model = _fit_one(dataset, linear, objective, solver, progress, timing)
-        model.meta.update(stiffness_law="linear", law_test=TREND_LAW)
-    elif getattr(structure, "stiffness", "linear") == "auto":
-        model = _fit_auto_law(dataset, structure, objective, solver, progress, timing)
+    if getattr(structure, "stiffness", "linear") == "auto":
+        model = _fit_auto_law(dataset, structure, objective, solver, progress, timing, linear_trend)
     else:
         model = _fit_one(dataset, structure, objective, solver, progress, timing)
     notes = check_fit(dataset, model) + notes
@@ -182,6 +177,7 @@ def _fit_auto_law(
     solver: Solver,
     progress: Progress | None,
     timing: Timing = NO_TIMING,
+    linear_trend: bool = False,
 ) -> FittedModel:
     """``stiffness = "auto"``: the quadratic law where the data show it, else the linear one.
 
@@ -190,12 +186,16 @@ def _fit_auto_law(
     splits the modes) rejects them being 0 at
     :data:`LAW_TEST_LEVEL`; otherwise (or without a covariance, or with a one-sided design) the
     linear law is fitted to the same data. ``model.meta["stiffness_law"]`` says which, with the
-    statistic and the threshold.
+    statistic and the threshold. With ``linear_trend`` and the trend, linear (:data:`TREND_LAW`).
     """
     import scipy.stats
 
     linear, quadratic = copy.copy(structure), copy.copy(structure)
     linear.stiffness, quadratic.stiffness = "linear", "quadratic"
+    if linear_trend and timing.trend:
+        model = _fit_one(dataset, linear, objective, solver, progress, timing)
+        model.meta.update(stiffness_law="linear", law_test=TREND_LAW)
+        return model
     bias = np.asarray(dataset["bias"].values, dtype=float)
     vg = float(dataset.attrs["structure_potential"])
     try:
