@@ -24,11 +24,18 @@ in Hz, its direction the modes' orientation. The ways:
 * ``mean-3``: given the mean of the three latest windows' own splits, each against the
   anchored model at its own time and bias;
 * ``weighted-60s``: their mean over every window, weighted by ``exp(−age / 60 s)``;
-* ``rate``: a straight line in time through every window's, taken to the next window's time.
+* ``rate``: a straight line in time through every window's, taken to the next window's time;
+* ``true-drift``: the mean of the four latest windows' own splits, each brought to the latest
+  window's time and then to the next window's by the TRUE drift of the split (the replica's
+  change of the split vector at the window's bias), which no run knows: what combining the
+  windows would give if the split's drift were known.
 
 One table row per way, over the gyros under and over 8 kHz: the root mean square, median and 90th
-percentile of the vector error (mHz) and the shares of predictions within 1 and 2 mHz. A window
-averaged over passes (``max_passes``) is replayed as its last pass.
+percentile of the vector error (mHz) and the shares of predictions within 1 and 2 mHz; then, per
+kind, the median true rate of the split vector at the next bias (mHz/min) and the median error
+of the rate the ``rate`` way draws through the windows (with three windows or more).
+
+A window averaged over passes (``max_passes``) is replayed as its last pass.
 """
 
 from __future__ import annotations
@@ -55,7 +62,10 @@ from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import normalised_stiffness, trace_deviation
 from sysid_core.run.tracking import NEAR_ACCEPTANCES
 
-WAYS = ["tracker", "anchor", "latest", "mean-3", "weighted-60s", "rate"]
+WAYS = ["tracker", "anchor", "latest", "mean-3", "weighted-60s", "rate", "true-drift"]
+#: The key of :func:`predictions` that holds the ``rate`` way's change of the split vector in a
+#: minute (mHz), not a prediction.
+RATE = "rate per minute"
 #: A gyro at this frequency or over is fast (Hz).
 FAST_HZ = 8000.0
 
@@ -107,10 +117,24 @@ def _line(t: np.ndarray, y: np.ndarray, w: np.ndarray, at: float) -> np.ndarray:
     return beta[0] + beta[1] * (at - t[-1])
 
 
+#: The true change of the split vector (mHz) at a bias (every electrode) from one time to another.
+Drift = Callable[[np.ndarray, float, float], np.ndarray]
+
+
 def predictions(
-    model: FittedModel, now: FittedModel | None, near: list[Window], bias: np.ndarray, at: float
+    model: FittedModel,
+    now: FittedModel | None,
+    near: list[Window],
+    bias: np.ndarray,
+    at: float,
+    drift: Drift | None = None,
+    applied: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
-    """Each way's split vector (mHz) at ``bias`` (the model's electrodes) and time ``at``."""
+    """Each way's split vector (mHz) at ``bias`` (the model's electrodes) and time ``at``.
+
+    ``drift`` (the truth's, of a replica) and ``applied`` (the bias of every electrode at
+    ``at``) give the ``true-drift`` way.
+    """
     latest = near[-1]
     found = anchor(model, [latest.sweep], rate=False)
     base = found.model_at(model, at)
@@ -136,16 +160,47 @@ def predictions(
         if len(near) > 2
         else given(offsets[-1]),
     }
+    if len(near) > 2:
+        later = given(_line(ages, flat, np.ones_like(ages), at + 60.0).reshape(2, 2))
+        out[RATE] = later - out["rate"]
     if now is not None:
         out["tracker"] = split_vector(now.M, now.stiffness(bias))
+    if drift is not None and applied is not None:
+        out["true-drift"] = _true_drift(base, model, near[-4:], drift, applied, bias, at)
     return out
+
+
+def _true_drift(
+    base: FittedModel,
+    model: FittedModel,
+    near: list[Window],
+    drift: Drift,
+    applied: np.ndarray,
+    bias: np.ndarray,
+    at: float,
+) -> np.ndarray:
+    """The ``true-drift`` way: the windows' own splits moved in time by the truth's drift."""
+    t_latest = float(_times(near[-1].sweep).mean())
+    electrodes = list(model.electrodes)
+    errors = []
+    for w in near:
+        own = split_vector(w.own.M, w.own.stiffness([]))
+        tuned = np.asarray(w.sweep.sel(electrode=electrodes)["bias"].values[0], dtype=float)
+        every = np.asarray(w.sweep["bias"].values[0], dtype=float)
+        then = float(_times(w.sweep).mean())
+        missed = own - split_vector(base.M, base.stiffness(tuned))
+        errors.append(missed + drift(every, then, t_latest))
+    ahead = drift(applied, t_latest, at)
+    return split_vector(base.M, base.stiffness(bias)) + np.mean(errors, axis=0) + ahead
 
 
 def replay(folder: Path, device: Any, acceptance_hz: float = 0.002) -> list[dict[str, float]]:
     """The vector error (mHz) of each way at each replayed iteration of the run in ``folder``.
 
     ``device``: a replica of the run's simulated device. Each row also holds ``true``, the
-    length of the true split vector there (mHz), and ``iteration``.
+    length of the true split vector there (mHz), ``iteration``, ``rate_true``, the length of
+    the true split vector's change in a minute at the next bias (mHz/min), and with three
+    windows or more ``rate_error``, how far the ``rate`` way's change in a minute is from it.
     """
     found = windows(folder)
     rows = []
@@ -161,10 +216,22 @@ def replay(folder: Path, device: Any, acceptance_hz: float = 0.002) -> list[dict
         bias = np.asarray(nxt.sweep["bias"].values[0], dtype=float)
         tuned = np.asarray(nxt.sweep.sel(electrode=list(model.electrodes))["bias"].values[0])
         at = float(_times(nxt.sweep).mean())
-        k = device._drifted_stiffness(device.applied_bias(bias), np.array([at]))[0]
-        true = split_vector(device.truth.M, k)
+
+        def truth(every: np.ndarray, t: float) -> np.ndarray:
+            k = device._drifted_stiffness(device.applied_bias(every), np.array([t]))[0]
+            return split_vector(device.truth.M, k)
+
+        def drift(every: np.ndarray, t0: float, t1: float) -> np.ndarray:
+            return truth(every, t1) - truth(every, t0)
+
+        true = truth(bias, at)
         row: dict[str, float] = {"iteration": float(it), "true": float(np.hypot(*true))}
-        for way, vector in predictions(model, now, near, tuned, at).items():
+        found_ways = predictions(model, now, near, tuned, at, drift=drift, applied=bias)
+        true_rate = drift(bias, at, at + 60.0)
+        row["rate_true"] = float(np.hypot(*true_rate))
+        if RATE in found_ways:
+            row["rate_error"] = float(np.hypot(*(found_ways.pop(RATE) - true_rate)))
+        for way, vector in found_ways.items():
             row[way] = float(np.hypot(*(vector - true)))
         rows.append(row)
     return rows
@@ -192,6 +259,19 @@ def table(rows: dict[str, list[dict[str, float]]], frequency_hz: dict[str, float
             lines.append(
                 f"| `{way}` | {label} | {e.size} | {rms:.2f} / {np.median(e):.2f} / "
                 f"{np.percentile(e, 90):.2f} | {np.mean(e < 1):.0%} | {np.mean(e < 2):.0%} |"
+            )
+    lines.append("")
+    for label, keep in kinds:
+        picked = [r for g, rs in rows.items() if keep(frequency_hz[g]) for r in rs]
+        true = [r["rate_true"] for r in picked]
+        missed = [r["rate_error"] for r in picked if "rate_error" in r]
+        if true:
+            lines.append(
+                f"{label}: the split's true drift {np.median(true):.2f} mHz/min (median); "
+                f"the `rate` way's line misses it by {np.median(missed):.2f} (median of "
+                f"{len(missed)})"
+                if missed
+                else f"{label}: the split's true drift {np.median(true):.2f} mHz/min (median)"
             )
     return "\n".join(lines)
 
