@@ -14,6 +14,11 @@ on a 25 kHz gyro, in which charging moves the split by 2-4 mHz); when the latest
 near-degenerate split and sweeps were measured after it, :meth:`Tracker.stale` says so and the
 run measures the window again at its bias (:meth:`Tracker.refreshed`): the answer is then anchored
 on a window seconds old, and the two measurements of one bias give the drift's rate.
+
+Once four windows or more near degenerate modes tell the split's drift from their noise, the
+split at the next window is where a line in time through their own splits puts it
+(:func:`windows_line`): on a slow gyro, whose windows are tens of minutes apart, the latest
+window's split is stale by the drift.
 """
 
 from __future__ import annotations
@@ -27,19 +32,29 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.data.schema import requested_bias
-from sysid_core.identification.anchor import Anchor, anchor, split_offset
+from sysid_core.identification.anchor import anchor
 from sysid_core.identification.drift import OffsetDrift, offset_drift
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.evidence import WindowAssessment
+from sysid_core.run.own_splits import (
+    LINE_SIGNIFICANCE,
+    LINE_WINDOWS,
+    SPLIT_SIGNIFICANCE,
+    stamps,
+    windows_line,
+    windows_split,
+)
 from sysid_core.run.verification import Verification
-from sysid_core.tuning.confidence import split_interval
 
 __all__ = [
+    "LINE_SIGNIFICANCE",
+    "LINE_WINDOWS",
     "NEAR_ACCEPTANCES",
     "SAMPLED_WITHIN",
     "SPLIT_SIGNIFICANCE",
     "Tracker",
     "blind",
+    "windows_line",
     "windows_split",
 ]
 
@@ -51,13 +66,6 @@ Sweep = Callable[
 
 #: Earlier windows anchor the model when their split was under this many acceptances.
 NEAR_ACCEPTANCES = 10.0
-
-
-def _times(ds: xr.Dataset) -> np.ndarray:
-    if "time_s" not in ds:
-        return np.array([])
-    t = np.asarray(ds["time_s"].values, dtype=float).ravel()
-    return t[np.isfinite(t)]
 
 
 @dataclass
@@ -109,7 +117,7 @@ class Tracker:
         answers in a row predicted under 2 mHz where band sweeps located the modes 10-13 Hz
         apart, and the run ended 10 Hz apart).
         """
-        t = _times(ver.sweep)
+        t = stamps(ver.sweep)
         if ver.verified and ver.split_hz is not None and t.size == ver.sweep["frequency"].size:
             self.windows.append(ver.sweep)
             self.splits.append(float(ver.split_hz))
@@ -126,10 +134,10 @@ class Tracker:
         """
         if not self.windows or self.splits[-1] > self.near_hz:
             return None
-        last, stamps = _times(self.windows[-1]), _times(ds)
-        if not last.size or not stamps.size:
+        last, since = stamps(self.windows[-1]), stamps(ds)
+        if not last.size or not since.size:
             return None
-        return self.windows[-1] if float(stamps.max()) > float(last.max()) else None
+        return self.windows[-1] if float(since.max()) > float(last.max()) else None
 
     def refresh(
         self,
@@ -165,7 +173,7 @@ class Tracker:
         ``model``: its own single-bias model; ``unseen``: its fit has a mode that none of its
         points came near (:func:`blind`).
         """
-        t = _times(sweep)
+        t = stamps(sweep)
         if split_hz is not None and t.size == sweep["frequency"].size:
             self.windows.append(sweep)
             self.splits.append(float(split_hz))
@@ -190,7 +198,7 @@ class Tracker:
 
     def ahead_s(self) -> float:
         """From the latest time stamp to the middle of the next window (seconds)."""
-        t = _times(self.windows[-1]) if self.windows else np.array([])
+        t = stamps(self.windows[-1]) if self.windows else np.array([])
         return self.settle_s + (0.5 * float(np.ptp(t)) if t.size else 0.0)
 
     def now(
@@ -204,8 +212,9 @@ class Tracker:
             return model
         chosen = self.anchoring()
         found = anchor(model, chosen)
-        stamps = _times(ds)
-        at = max(found.t_ref, float(stamps.max()) if stamps.size else found.t_ref) + self.ahead_s()
+        measured = stamps(ds)
+        latest = float(measured.max()) if measured.size else found.t_ref
+        at = max(found.t_ref, latest) + self.ahead_s()
         moved = found.model_at(model, at)
         # a window whose fit has a mode none of its points came near does not give its own
         # split: that mode may be a phantom (random gyro 119)
@@ -221,6 +230,18 @@ class Tracker:
         offset, shift_hz = (
             windows_split(model, found, pairs[-1:]) if pairs else (np.zeros((2, 2)), 0.0)
         )
+        near = [
+            (w, own)
+            for w, own, s, unseen in zip(
+                self.windows, self.models, self.splits, self.blind, strict=True
+            )
+            if s <= self.near_hz and not unseen
+        ]
+        # a line only while the latest window is itself near degenerate modes
+        latest_near = bool(near) and near[-1][0] is self.windows[-1]
+        line = windows_line(model, moved, near, at) if latest_near else None
+        if line is not None:
+            offset = line
         moved = dataclasses.replace(moved, K0=np.asarray(moved.K0) + offset)
         self.rates = seen = offset_drift(moved)
         split = (
@@ -233,11 +254,12 @@ class Tracker:
             if seen is None
             else f"; drift {seen.common_hz_per_h * 1e3:+.4g} mHz/h common, {split}"
         )
-        own = (
-            ""
-            if shift_hz == 0.0
-            else f"; the latest window's own split moves it {shift_hz * 1e3:.3g} mHz"
-        )
+        if line is not None:
+            own = f"; the split of a line in time through {len(near)} windows' own splits"
+        elif shift_hz:
+            own = f"; the latest window's own split moves it {shift_hz * 1e3:.3g} mHz"
+        else:
+            own = ""
         if refused:
             own += (
                 f"; {refused} window(s) give no split of their own (a fitted mode that none of "
@@ -273,51 +295,3 @@ def blind(sweep: xr.Dataset, evidence: WindowAssessment) -> bool:
         return False
     near = np.min(np.abs(f[None, :] - modes[:, None]), axis=1)
     return bool(np.any(near > SAMPLED_WITHIN * np.where(np.isfinite(bw), bw, np.inf)))
-
-
-#: The windows' own splits move the anchored model only when the move is over this many
-#: standard deviations of their mean (their noise's, from each window's split interval).
-SPLIT_SIGNIFICANCE = 2.0
-
-
-def windows_split(
-    model: FittedModel, found: Anchor, windows: list[tuple[xr.Dataset, FittedModel]]
-) -> tuple[np.ndarray, float]:
-    """The stiffness offset that gives the anchored model its windows' own split, and its move.
-
-    For each window (sweep and own single-bias model), what the anchored model at the window's
-    time misses of the split that window measured
-    (:func:`~sysid_core.identification.anchor.split_offset`); their mean, if the split it moves
-    (Hz) is over :data:`SPLIT_SIGNIFICANCE` standard deviations of the windows' mean split
-    (each window's from its 95 % interval), else zero: where the anchor holds, the windows'
-    noise would only move the answer (a clock without drift at 60 dB, random gyros 101-124,
-    4 iterations: 20 of 24 within 2 mHz with the anchor alone, 17 with the windows' mean
-    always applied, 18 with this test; in the uncontrolled lab, 8 iterations: 15, 19 and 19).
-
-    :meth:`Tracker.now` passes the latest window that gives its own split, alone: the windows
-    sit at different biases and times, and the orientations of their own splits differ, so
-    that their mean moved random gyro 313 (8.6 kHz, lab) by 1.0-1.4 mHz where its model lacked
-    about 3, and the run ended at 4.0 mHz; with the latest window alone it ends at 1.0 mHz.
-    The four lab sets (docs/drift.md), 8 iterations, draws 0-2: 253 of 288 within 2 mHz
-    against 244 with the mean of up to four windows.
-    """
-    offsets, variances = [], []
-    for sweep, own in windows:
-        then = found.model_at(model, float(_times(sweep).mean()))
-        offsets.append(split_offset(then, sweep, own))
-        interval = split_interval(own)
-        reach = 0.0 if interval is None else max(interval[1] - own.split_hz([]), 0.0)
-        variances.append((reach / 1.96) ** 2)
-    mean = np.mean(offsets, axis=0)
-    m = np.asarray(model.M, dtype=float)
-    lam, vec = np.linalg.eigh(m)
-    inv_root = (vec / np.sqrt(np.clip(lam, 1e-300, None))) @ vec.T
-    d = inv_root @ mean @ inv_root  # traceless: [[a, b], [b, -a]]
-    # the latest window's own modes: the model may have none at its bias (a local model, and a
-    # window at the bias limits: random gyro 112 in the lab)
-    f = float(np.mean(windows[-1][1].modal_frequencies_hz([])))
-    shift = float(np.hypot(d[0, 0], d[0, 1])) / (4 * np.pi**2 * f)
-    sigma = float(np.sqrt(np.sum(variances))) / len(windows)
-    if shift <= SPLIT_SIGNIFICANCE * sigma:
-        return np.zeros((2, 2)), 0.0
-    return mean, shift

@@ -215,6 +215,7 @@ def test_the_windows_own_split_moves_the_model_only_beyond_their_noise(
     by 3.2 mHz, and their own splits, beyond their noise at 80 dB, bring it closer."""
     from sysid_cloverleaf import CloverleafGyro
 
+    import sysid_core.run.own_splits as own_splits
     import sysid_core.run.tracking as tracking
     from sysid_core import fit
     from sysid_core.data import concat_experiments, experiment_from_measurement
@@ -263,7 +264,7 @@ def test_the_windows_own_split_moves_the_model_only_beyond_their_noise(
     far.__dict__.update(model.__dict__)
     assert tracking.windows_split(far, found, pairs)[1] == pytest.approx(shift, rel=1e-6)
     # a move within the windows' noise is no move
-    monkeypatch.setattr(tracking, "SPLIT_SIGNIFICANCE", 1e9)
+    monkeypatch.setattr(own_splits, "SPLIT_SIGNIFICANCE", 1e9)
     offset, shift = tracking.windows_split(model, found, pairs)
     assert shift == 0.0 and not np.any(offset)
 
@@ -308,3 +309,64 @@ def test_the_latest_window_gives_its_own_split_not_the_mean_of_the_windows() -> 
     mean = tracking.windows_split(model, found, pairs)[1]
     assert latest > 0.0 and abs(latest - mean) > 0.1 * latest  # the two differ here
     assert f"the latest window's own split moves it {latest * 1e3:.3g} mHz" in lines[-1]
+
+
+def test_a_line_through_the_windows_own_splits_carries_the_split_ahead() -> None:
+    """Cloverleaf seed 1 (80 dB), B1 charging at 50 mV/h, a model of design sweeps around 0 V:
+    windows at (2.0, 4.4) V every 10 minutes, in which the split moves by about 9 mHz. Ten
+    minutes after the last, the line through five windows' own splits puts the split where it
+    is then, and nearer than the latest window's own split, 10 minutes stale; with three
+    windows, or five on a bench that does not charge (no slope to tell), there is no line."""
+    from sysid_cloverleaf import CloverleafGyro
+
+    import sysid_core.run.tracking as tracking
+    from sysid_core import fit
+    from sysid_core.data import concat_experiments, experiment_from_measurement
+    from sysid_core.identification.anchor import anchor
+    from sysid_core.run.sweeps import design_experiments
+
+    bias = np.array([2.0, 4.4, 0.0])
+
+    def windows_of(charging: float) -> tuple[CloverleafGyro, object, list]:
+        gyro = CloverleafGyro(
+            seed=1, bench={"clock": True, "charging_v_per_h": [charging, 0.0, 0.0]}
+        )
+
+        def measured(b: np.ndarray, f: np.ndarray) -> xr.Dataset:
+            sweep = gyro.measure(b, f)
+            return experiment_from_measurement(sweep, b, gyro.electrodes, 15.58, "c")
+
+        design = design_experiments(np.zeros(3), [0, 1], 1.0, (-10.0, 10.0), two_sided=True)
+        band = np.linspace(4385.0, 4445.0, 121)
+        ds = concat_experiments([measured(b, band) for b in design])
+        model = fit(ds.sel(electrode=["B1", "B2"]))
+        pairs = []
+        for _ in range(5):
+            gyro.bench.now_s += 600.0
+            centre = gyro.true_modal_frequencies_hz(bias).mean()
+            w = measured(bias, np.linspace(centre - 1.0, centre + 1.0, 41))
+            pairs.append((w, fit(w.sel(electrode=[]))))
+        return gyro, model, pairs
+
+    gyro, model, pairs = windows_of(0.05)
+    applied = np.asarray(pairs[-1][0].sel(electrode=["B1", "B2"])["bias"].values[0])
+    at = gyro.time_s + 600.0
+    found = anchor(model, [w for w, _ in pairs[-4:]])
+    moved = found.model_at(model, at)
+    offset = tracking.windows_line(model, moved, pairs, at)
+    assert offset is not None
+    ahead = dataclasses.replace(moved, K0=np.asarray(moved.K0) + offset)
+    gyro.bench.now_s = at
+    f = gyro.true_modal_frequencies_hz(bias)
+    truth = float(f[1] - f[0])
+    stale = pairs[-1][1].split_hz([])
+    assert abs(stale - truth) > 0.005  # the latest window is 10 minutes (9 mHz) old
+    # measured: 0.19 mHz from the truth, the stale window 9.1, the anchored model 2.0
+    assert abs(ahead.split_hz(applied) - truth) < 0.1 * abs(stale - truth)
+    # the offset moves the split, not the mean frequency
+    assert np.mean(ahead.modal_frequencies_hz(applied)) == pytest.approx(
+        np.mean(moved.modal_frequencies_hz(applied)), abs=1e-6
+    )
+    assert tracking.windows_line(model, moved, pairs[-3:], at) is None
+    _, model, pairs = windows_of(0.0)
+    assert tracking.windows_line(model, model, pairs, at) is None
