@@ -36,6 +36,13 @@ def stamps(ds: xr.Dataset) -> np.ndarray:
     return t[np.isfinite(t)]
 
 
+def _roots(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``M^{1/2}`` and ``M^{-1/2}`` of a symmetric positive definite mass matrix."""
+    lam, vec = np.linalg.eigh(np.asarray(m, dtype=float))
+    root = (vec * np.sqrt(np.clip(lam, 0.0, None))) @ vec.T
+    return root, (vec / np.sqrt(np.clip(lam, 1e-300, None))) @ vec.T
+
+
 #: The windows' own splits move the anchored model only when the move is over this many
 #: standard deviations of their mean (their noise's, from each window's split interval).
 SPLIT_SIGNIFICANCE = 2.0
@@ -70,9 +77,7 @@ def windows_split(
         reach = 0.0 if interval is None else max(interval[1] - own.split_hz([]), 0.0)
         variances.append((reach / 1.96) ** 2)
     mean = np.mean(offsets, axis=0)
-    m = np.asarray(model.M, dtype=float)
-    lam, vec = np.linalg.eigh(m)
-    inv_root = (vec / np.sqrt(np.clip(lam, 1e-300, None))) @ vec.T
+    _, inv_root = _roots(model.M)
     d = inv_root @ mean @ inv_root  # traceless: [[a, b], [b, -a]]
     # the latest window's own modes: the model may have none at its bias (a local model, and a
     # window at the bias limits: random gyro 112 in the lab)
@@ -119,10 +124,7 @@ def windows_line(
         return None
     latest = windows[-1][0]
     base = anchor(model, [latest], rate=False).model_at(model, float(stamps(latest).max()))
-    m = np.asarray(model.M, dtype=float)
-    lam, vec = np.linalg.eigh(m)
-    root = (vec * np.sqrt(np.clip(lam, 0.0, None))) @ vec.T
-    inv_root = (vec / np.sqrt(np.clip(lam, 1e-300, None))) @ vec.T
+    root, inv_root = _roots(model.M)
     f = float(np.mean(windows[-1][1].modal_frequencies_hz([])))
     scale = 4 * np.pi**2 * f  # (rad/s)² of the deviation per Hz of split
     t_latest = float(stamps(latest).mean())
