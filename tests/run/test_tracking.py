@@ -311,44 +311,44 @@ def test_the_latest_window_gives_its_own_split_not_the_mean_of_the_windows() -> 
     assert f"the latest window's own split moves it {latest * 1e3:.3g} mHz" in lines[-1]
 
 
+def _charging_windows(charging: float) -> tuple[object, object, list]:
+    """Cloverleaf seed 1 (80 dB) with B1 charging at ``charging`` V/h: a model of design sweeps
+    around 0 V, then five windows at (2.0, 4.4) V 10 minutes apart, each with its own fit."""
+    from sysid_cloverleaf import CloverleafGyro
+
+    from sysid_core import fit
+    from sysid_core.data import concat_experiments, experiment_from_measurement
+    from sysid_core.run.sweeps import design_experiments
+
+    bias = np.array([2.0, 4.4, 0.0])
+    gyro = CloverleafGyro(seed=1, bench={"clock": True, "charging_v_per_h": [charging, 0.0, 0.0]})
+
+    def measured(b: np.ndarray, f: np.ndarray) -> xr.Dataset:
+        return experiment_from_measurement(gyro.measure(b, f), b, gyro.electrodes, 15.58, "c")
+
+    design = design_experiments(np.zeros(3), [0, 1], 1.0, (-10.0, 10.0), two_sided=True)
+    band = np.linspace(4385.0, 4445.0, 121)
+    model = fit(concat_experiments([measured(b, band) for b in design]).sel(electrode=["B1", "B2"]))
+    pairs = []
+    for _ in range(5):
+        gyro.bench.now_s += 600.0
+        centre = gyro.true_modal_frequencies_hz(bias).mean()
+        w = measured(bias, np.linspace(centre - 1.0, centre + 1.0, 41))
+        pairs.append((w, fit(w.sel(electrode=[]))))
+    return gyro, model, pairs
+
+
 def test_a_line_through_the_windows_own_splits_carries_the_split_ahead() -> None:
     """Cloverleaf seed 1 (80 dB), B1 charging at 50 mV/h, a model of design sweeps around 0 V:
     windows at (2.0, 4.4) V every 10 minutes, in which the split moves by about 9 mHz. Ten
     minutes after the last, the line through five windows' own splits puts the split where it
     is then, and nearer than the latest window's own split, 10 minutes stale; with three
     windows, or five on a bench that does not charge (no slope to tell), there is no line."""
-    from sysid_cloverleaf import CloverleafGyro
-
     import sysid_core.run.tracking as tracking
-    from sysid_core import fit
-    from sysid_core.data import concat_experiments, experiment_from_measurement
     from sysid_core.identification.anchor import anchor
-    from sysid_core.run.sweeps import design_experiments
 
     bias = np.array([2.0, 4.4, 0.0])
-
-    def windows_of(charging: float) -> tuple[CloverleafGyro, object, list]:
-        gyro = CloverleafGyro(
-            seed=1, bench={"clock": True, "charging_v_per_h": [charging, 0.0, 0.0]}
-        )
-
-        def measured(b: np.ndarray, f: np.ndarray) -> xr.Dataset:
-            sweep = gyro.measure(b, f)
-            return experiment_from_measurement(sweep, b, gyro.electrodes, 15.58, "c")
-
-        design = design_experiments(np.zeros(3), [0, 1], 1.0, (-10.0, 10.0), two_sided=True)
-        band = np.linspace(4385.0, 4445.0, 121)
-        ds = concat_experiments([measured(b, band) for b in design])
-        model = fit(ds.sel(electrode=["B1", "B2"]))
-        pairs = []
-        for _ in range(5):
-            gyro.bench.now_s += 600.0
-            centre = gyro.true_modal_frequencies_hz(bias).mean()
-            w = measured(bias, np.linspace(centre - 1.0, centre + 1.0, 41))
-            pairs.append((w, fit(w.sel(electrode=[]))))
-        return gyro, model, pairs
-
-    gyro, model, pairs = windows_of(0.05)
+    gyro, model, pairs = _charging_windows(0.05)
     applied = np.asarray(pairs[-1][0].sel(electrode=["B1", "B2"])["bias"].values[0])
     at = gyro.time_s + 600.0
     found = anchor(model, [w for w, _ in pairs[-4:]])
@@ -368,5 +368,21 @@ def test_a_line_through_the_windows_own_splits_carries_the_split_ahead() -> None
         np.mean(moved.modal_frequencies_hz(applied)), abs=1e-6
     )
     assert tracking.windows_line(model, moved, pairs[-3:], at) is None
-    _, model, pairs = windows_of(0.0)
+    _, model, pairs = _charging_windows(0.0)
     assert tracking.windows_line(model, model, pairs, at) is None
+
+
+def test_the_tracker_takes_the_line_once_its_windows_tell_the_drift() -> None:
+    """The same charging cloverleaf: a tracker holding the five windows answers from the line
+    through their own splits and says so; holding three, from the latest window's own split."""
+    _, model, pairs = _charging_windows(0.05)
+    for count, line in ((5, True), (3, False)):
+        tracker = Tracker()
+        tracker.windows = [w for w, _ in pairs[-count:]]
+        tracker.models = [own for _, own in pairs[-count:]]
+        tracker.splits = [own.split_hz([]) for own in tracker.models]
+        tracker.blind = [False] * count
+        lines: list[str] = []
+        tracker.now(model, tracker.windows[-1], lines.append, 6)
+        said = f"the split of a line in time through {count} windows' own splits" in lines[-1]
+        assert said == line, lines[-1]
