@@ -22,6 +22,7 @@ __all__ = [
     "LINE_SIGNIFICANCE",
     "LINE_WINDOWS",
     "SPLIT_SIGNIFICANCE",
+    "split_variance",
     "stamps",
     "windows_line",
     "windows_split",
@@ -41,6 +42,13 @@ def _roots(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     lam, vec = np.linalg.eigh(np.asarray(m, dtype=float))
     root = (vec * np.sqrt(np.clip(lam, 0.0, None))) @ vec.T
     return root, (vec / np.sqrt(np.clip(lam, 1e-300, None))) @ vec.T
+
+
+def split_variance(own: FittedModel) -> float:
+    """The variance (Hz²) of a window's own split: the reach of its 95 % interval above it."""
+    interval = split_interval(own)
+    reach = 0.0 if interval is None else max(interval[1] - own.split_hz([]), 0.0)
+    return (reach / 1.96) ** 2
 
 
 #: The windows' own splits move the anchored model only when the move is over this many
@@ -73,9 +81,7 @@ def windows_split(
     for sweep, own in windows:
         then = found.model_at(model, float(stamps(sweep).mean()))
         offsets.append(split_offset(then, sweep, own))
-        interval = split_interval(own)
-        reach = 0.0 if interval is None else max(interval[1] - own.split_hz([]), 0.0)
-        variances.append((reach / 1.96) ** 2)
+        variances.append(split_variance(own))
     mean = np.mean(offsets, axis=0)
     _, inv_root = _roots(model.M)
     d = inv_root @ mean @ inv_root  # traceless: [[a, b], [b, -a]]
@@ -133,9 +139,7 @@ def windows_line(
         d = inv_root @ split_offset(base, sweep, own) @ inv_root
         rows.append([d[0, 0] / scale, d[0, 1] / scale])
         times.append(float(stamps(sweep).mean()) - t_latest)
-        interval = split_interval(own)
-        reach = 0.0 if interval is None else max(interval[1] - own.split_hz([]), 0.0)
-        variances.append(max((reach / 1.96) ** 2, 1e-18))
+        variances.append(max(split_variance(own), 1e-18))
     x = np.c_[np.ones(len(times)), times]
     w = 1.0 / np.asarray(variances)
     cov = np.linalg.inv(x.T @ (x * w[:, None]))

@@ -225,11 +225,6 @@ class Tracker:
         ]
         pairs = [(w, own) for w, own, unseen in anchoring if not unseen]
         refused = len(anchoring) - len(pairs)
-        # the split of the latest window that gives one: the windows sit at different biases
-        # and times, and the mean of their splits' orientations can cancel (random gyro 313)
-        offset, shift_hz = (
-            windows_split(model, found, pairs[-1:]) if pairs else (np.zeros((2, 2)), 0.0)
-        )
         near = [
             (w, own)
             for w, own, s, unseen in zip(
@@ -240,8 +235,15 @@ class Tracker:
         # a line only while the latest window is itself near degenerate modes
         latest_near = bool(near) and near[-1][0] is self.windows[-1]
         line = windows_line(model, moved, near, at) if latest_near else None
-        if line is not None:
-            offset = line
+        # else the split of the latest window that gives one: the windows sit at different
+        # biases and times, and the mean of their splits' orientations can cancel (gyro 313)
+        offset, shift_hz = (
+            (line, 0.0)
+            if line is not None
+            else windows_split(model, found, pairs[-1:])
+            if pairs
+            else (np.zeros((2, 2)), 0.0)
+        )
         moved = dataclasses.replace(moved, K0=np.asarray(moved.K0) + offset)
         self.rates = seen = offset_drift(moved)
         split = (
