@@ -33,7 +33,7 @@ from sysid_core.conic.program import SYM_BASIS, sym
 from sysid_core.data.schema import measured_mask, point_times
 from sysid_core.errors import DataError
 from sysid_core.model.fitted import FittedModel
-from sysid_core.model.modal import normalised_stiffness, trace_deviation
+from sysid_core.model.modal import mass_roots, normalised_stiffness, trace_deviation
 
 __all__ = ["RATE_TEST_LIMIT", "Anchor", "anchor", "split_offset", "wald_statistic"]
 
@@ -258,6 +258,5 @@ def split_offset(model: FittedModel, sweep: xr.Dataset, window: FittedModel) -> 
     target = d_w * (r / norm) if norm > 0 else np.zeros(2)
     delta = target - d_m
     d = np.array([[delta[0], delta[1]], [delta[1], -delta[0]]])
-    lam, vec = np.linalg.eigh(m)
-    root = (vec * np.sqrt(np.clip(lam, 0.0, None))) @ vec.T
+    root, _ = mass_roots(m)
     return root @ d @ root

@@ -26,6 +26,7 @@ __all__ = [
     "degenerate_bias",
     "degenerate_pair_bias",
     "degenerate_w",
+    "mass_roots",
     "modal_analysis",
     "modal_frequencies_hz",
     "mode_peaks",
@@ -52,6 +53,17 @@ def normalised_stiffness(m: np.ndarray, k: np.ndarray) -> np.ndarray:
     extra = k.ndim - 3
     mh_b = mh.reshape(mh.shape[0], *([1] * extra), 2, 2)
     return mh_b @ k @ mh_b
+
+
+def mass_roots(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``M^{1/2}`` and ``M^{-1/2}`` of one symmetric positive definite 2×2 mass matrix.
+
+    A traceless offset ``D`` of the normalised stiffness is ``M^{1/2} D M^{1/2}`` in the
+    model's own frame.
+    """
+    lam, vec = np.linalg.eigh(np.asarray(m, dtype=float))
+    root = (vec * np.sqrt(np.clip(lam, 0.0, None))) @ vec.T
+    return root, (vec / np.sqrt(np.clip(lam, 1e-300, None))) @ vec.T
 
 
 def trace_deviation(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

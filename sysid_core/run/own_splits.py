@@ -16,6 +16,7 @@ import xarray as xr
 
 from sysid_core.identification.anchor import Anchor, anchor, split_offset
 from sysid_core.model.fitted import FittedModel
+from sysid_core.model.modal import mass_roots
 from sysid_core.tuning.confidence import split_interval
 
 __all__ = [
@@ -35,13 +36,6 @@ def stamps(ds: xr.Dataset) -> np.ndarray:
         return np.array([])
     t = np.asarray(ds["time_s"].values, dtype=float).ravel()
     return t[np.isfinite(t)]
-
-
-def _roots(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``M^{1/2}`` and ``M^{-1/2}`` of a symmetric positive definite mass matrix."""
-    lam, vec = np.linalg.eigh(np.asarray(m, dtype=float))
-    root = (vec * np.sqrt(np.clip(lam, 0.0, None))) @ vec.T
-    return root, (vec / np.sqrt(np.clip(lam, 1e-300, None))) @ vec.T
 
 
 def split_variance(own: FittedModel) -> float:
@@ -83,7 +77,7 @@ def windows_split(
         offsets.append(split_offset(then, sweep, own))
         variances.append(split_variance(own))
     mean = np.mean(offsets, axis=0)
-    _, inv_root = _roots(model.M)
+    _, inv_root = mass_roots(model.M)
     d = inv_root @ mean @ inv_root  # traceless: [[a, b], [b, -a]]
     # the latest window's own modes: the model may have none at its bias (a local model, and a
     # window at the bias limits: random gyro 112 in the lab)
@@ -130,7 +124,7 @@ def windows_line(
         return None
     latest = windows[-1][0]
     base = anchor(model, [latest], rate=False).model_at(model, float(stamps(latest).max()))
-    root, inv_root = _roots(model.M)
+    root, inv_root = mass_roots(model.M)
     f = float(np.mean(windows[-1][1].modal_frequencies_hz([])))
     scale = 4 * np.pi**2 * f  # (rad/s)² of the deviation per Hz of split
     t_latest = float(stamps(latest).mean())
