@@ -25,6 +25,11 @@ in Hz, its direction the modes' orientation. The ways:
   anchored model at its own time and bias;
 * ``weighted-60s``: their mean over every window, weighted by ``exp(−age / 60 s)``;
 * ``rate``: a straight line in time through every window's, taken to the next window's time;
+* ``pooled``: the windows of the last 10 minutes pooled
+  (:func:`sysid_core.run.own_splits.windows_pooled`: each anchored alone, moved by the mean
+  difference of their own splits from those, a line in time with a prior on its slope), the
+  tracker's way since it was measured here; where fewer than two windows are that recent,
+  the latest window's own split (the run itself keeps its line or its significance test);
 * ``true-drift``: the mean of the four latest windows' own splits, each brought to the latest
   window's time and then to the next window's by the TRUE drift of the split (the replica's
   change of the split vector at the window's bias), which no run knows: what combining the
@@ -60,9 +65,10 @@ from sysid_core.data.schema import load_dataset
 from sysid_core.identification.anchor import anchor, split_offset
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import normalised_stiffness, trace_deviation
+from sysid_core.run.own_splits import windows_pooled
 from sysid_core.run.tracking import NEAR_ACCEPTANCES
 
-WAYS = ["tracker", "anchor", "latest", "mean-3", "weighted-60s", "rate", "true-drift"]
+WAYS = ["tracker", "anchor", "latest", "mean-3", "weighted-60s", "rate", "pooled", "true-drift"]
 #: The key of :func:`predictions` that holds the ``rate`` way's change of the split vector in a
 #: minute (mHz), not a prediction.
 RATE = "rate per minute"
@@ -160,6 +166,8 @@ def predictions(
         if len(near) > 2
         else given(offsets[-1]),
     }
+    pooled = windows_pooled(model, base, [(w.sweep, w.own) for w in near], at)
+    out["pooled"] = given(offsets[-1] if pooled is None else pooled[0])
     if len(near) > 2:
         later = given(_line(ages, flat, np.ones_like(ages), at + 60.0).reshape(2, 2))
         out[RATE] = later - out["rate"]

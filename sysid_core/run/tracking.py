@@ -39,9 +39,11 @@ from sysid_core.run.evidence import WindowAssessment
 from sysid_core.run.own_splits import (
     LINE_SIGNIFICANCE,
     LINE_WINDOWS,
+    POOL_HORIZON_S,
     SPLIT_SIGNIFICANCE,
     stamps,
     windows_line,
+    windows_pooled,
     windows_split,
 )
 from sysid_core.run.verification import Verification
@@ -50,11 +52,13 @@ __all__ = [
     "LINE_SIGNIFICANCE",
     "LINE_WINDOWS",
     "NEAR_ACCEPTANCES",
+    "POOL_HORIZON_S",
     "SAMPLED_WITHIN",
     "SPLIT_SIGNIFICANCE",
     "Tracker",
     "blind",
     "windows_line",
+    "windows_pooled",
     "windows_split",
 ]
 
@@ -232,9 +236,16 @@ class Tracker:
             )
             if s <= self.near_hz and not unseen
         ]
-        # a line only while the latest window is itself near degenerate modes
+        # pooled or a line only while the latest window is itself near degenerate modes
         latest_near = bool(near) and near[-1][0] is self.windows[-1]
-        line = windows_line(model, moved, near, at) if latest_near else None
+        pooled = windows_pooled(model, moved, near, at) if latest_near else None
+        line = (
+            pooled[0]
+            if pooled is not None
+            else windows_line(model, moved, near, at)
+            if latest_near
+            else None
+        )
         # else the split of the latest window that gives one: the windows sit at different
         # biases and times, and the mean of their splits' orientations can cancel (gyro 313)
         offset, shift_hz = (
@@ -256,7 +267,12 @@ class Tracker:
             if seen is None
             else f"; drift {seen.common_hz_per_h * 1e3:+.4g} mHz/h common, {split}"
         )
-        if line is not None:
+        if pooled is not None:
+            own = (
+                f"; the split of {pooled[1]} windows of the last {POOL_HORIZON_S / 60:.0f} min "
+                "pooled"
+            )
+        elif line is not None:
             own = f"; the split of a line in time through {len(near)} windows' own splits"
         elif shift_hz:
             own = f"; the latest window's own split moves it {shift_hz * 1e3:.3g} mHz"
