@@ -470,3 +470,17 @@ def test_windows_are_pooled_only_within_the_horizon() -> None:
         time_s=pairs[-1][0]["time_s"] + own_splits.POOL_HORIZON_S + 1.0
     )
     assert own_splits.windows_pooled(model, model, [pairs[0], (later, pairs[-1][1])], at) is None
+
+
+def test_the_tracker_pools_recent_windows_and_says_so() -> None:
+    """A tracker holding four recent windows of random gyro 117 answers from their pooled
+    split and says how many it pooled."""
+    _, model, pairs, _ = _fast_windows(117, 0, 4)
+    tracker = Tracker()
+    tracker.windows = [w for w, _ in pairs]
+    tracker.models = [own for _, own in pairs]
+    tracker.splits = [own.split_hz([]) for own in tracker.models]
+    tracker.blind = [False] * 4
+    lines: list[str] = []
+    tracker.now(model, tracker.windows[-1], lines.append, 5)
+    assert "the split of 4 windows of the last 10 min pooled" in lines[-1], lines[-1]
