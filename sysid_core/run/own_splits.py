@@ -135,8 +135,7 @@ def windows_line(
     t_latest = float(stamps(latest).mean())
     rows, times, variances = [], [], []
     for sweep, own in windows:
-        d = inv_root @ split_offset(base, sweep, own) @ inv_root
-        rows.append([d[0, 0] / scale, d[0, 1] / scale])
+        rows.append(_vector(split_offset(base, sweep, own), inv_root, scale))
         times.append(float(stamps(sweep).mean()) - t_latest)
         variances.append(max(split_variance(own), 1e-18))
     x = np.c_[np.ones(len(times)), times]
