@@ -13,6 +13,8 @@ next window; :func:`windows_pooled`, where two windows or more were measured wit
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import xarray as xr
 
@@ -127,12 +129,8 @@ def windows_line(
     """
     if len(windows) < LINE_WINDOWS:
         return None
-    latest = windows[-1][0]
-    base = anchor(model, [latest], rate=False).model_at(model, float(stamps(latest).max()))
-    _, inv_root = mass_roots(model.M)
-    f = float(np.mean(windows[-1][1].modal_frequencies_hz([])))
-    scale = 4 * np.pi**2 * f  # (rad/s)² of the deviation per Hz of split
-    t_latest = float(stamps(latest).mean())
+    frame = _Frame.of(model, windows)
+    base, inv_root, scale, t_latest = frame.base, frame.inv_root, frame.scale, frame.t_latest
     rows, times, variances = [], [], []
     for sweep, own in windows:
         rows.append(_vector(split_offset(base, sweep, own), inv_root, scale))
@@ -145,6 +143,37 @@ def windows_line(
     if float(beta[1] @ beta[1] / cov[1, 1]) <= LINE_SIGNIFICANCE:
         return None
     return _offset_to(base, moved, beta[0] + beta[1] * (at - t_latest), scale)
+
+
+@dataclass(frozen=True)
+class _Frame:
+    """What the windows' splits are taken against: the model anchored on the latest window.
+
+    ``base`` is that model (no rate), ``offset`` its anchor's offset, ``inv_root`` ``M^{-1/2}``,
+    ``scale`` the (rad/s)² of the normalised deviation per Hz of split at the latest window's
+    own mean frequency, ``t_latest`` the middle of the latest window (seconds).
+    """
+
+    base: FittedModel
+    offset: np.ndarray
+    inv_root: np.ndarray
+    scale: float
+    t_latest: float
+
+    @classmethod
+    def of(cls, model: FittedModel, windows: list[tuple[xr.Dataset, FittedModel]]) -> _Frame:
+        """The frame of ``windows`` (oldest first) for ``model``."""
+        latest = windows[-1][0]
+        found = anchor(model, [latest], rate=False)
+        _, inv_root = mass_roots(model.M)
+        f = float(np.mean(windows[-1][1].modal_frequencies_hz([])))
+        return cls(
+            base=found.model_at(model, float(stamps(latest).max())),
+            offset=found.offset,
+            inv_root=inv_root,
+            scale=4 * np.pi**2 * f,
+            t_latest=float(stamps(latest).mean()),
+        )
 
 
 def _offset_to(
@@ -217,15 +246,12 @@ def windows_pooled(
     windows = [w for w in windows if t_last - float(stamps(w[0]).mean()) <= POOL_HORIZON_S]
     if len(windows) < 2:
         return None
-    latest = windows[-1][0]
-    found = anchor(model, [latest], rate=False)
-    base = found.model_at(model, float(stamps(latest).max()))
-    _, inv_root = mass_roots(model.M)
-    scale = 4 * np.pi**2 * float(np.mean(windows[-1][1].modal_frequencies_hz([])))
+    frame = _Frame.of(model, windows)
+    base, inv_root, scale = frame.base, frame.inv_root, frame.scale
     own, anchored, minutes = [], [], []
     for sweep, own_model in windows:
         own.append(_vector(split_offset(base, sweep, own_model), inv_root, scale))
-        alone = anchor(model, [sweep], rate=False).offset - found.offset
+        alone = anchor(model, [sweep], rate=False).offset - frame.offset
         anchored.append(_vector(alone, inv_root, scale))
         minutes.append((float(stamps(sweep).mean()) - t_last) / 60.0)
     own_v, anchored_v, tau = np.asarray(own), np.asarray(anchored), np.asarray(minutes)
