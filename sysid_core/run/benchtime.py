@@ -34,6 +34,7 @@ __all__ = [
     "dwell",
     "points_per_frequency",
     "settle",
+    "stated_dwell",
     "tones",
 ]
 
@@ -122,6 +123,14 @@ def _positive(value: object) -> float | None:
     return x if math.isfinite(x) and x > 0 else None
 
 
+def stated_dwell(device: object) -> float | None:
+    """The dwell per acquisition the device states itself (``dwell_s``), or ``None``.
+
+    A device that states one has a clock: each acquisition costs that many seconds.
+    """
+    return _positive(getattr(device, "dwell_s", None))
+
+
 def dwell(
     device: object, cfg_dwell: float | None, model: FittedModel | None
 ) -> tuple[float | None, str | None]:
@@ -130,7 +139,7 @@ def dwell(
     The source is ``"device"``, ``"config"`` or ``"estimated 5 Q/ω"``; ``(None, None)`` if
     nothing says (no model to estimate from).
     """
-    own = _positive(getattr(device, "dwell_s", None))
+    own = stated_dwell(device)
     if own is not None:
         return own, "device"
     if cfg_dwell is not None:

@@ -33,7 +33,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, ValidationError, field_validator
 
 from sysid_core.errors import ConfigError
 from sysid_core.identification.objective import DEFAULT_OBJECTIVE
@@ -188,11 +188,12 @@ class ExperimentConfig(_Strict):
     population rows (the uncontrolled lab lost most) 233 of 336 runs ended within 2 mHz
     against 247.
 
-    ``probe`` (default false), for a bench that may be quiet: the run's first look at the
-    band is a probe of a third of the locating sweep's points (at least 21). On a quiet bench
-    (the probe shows both modes and its noise is under 2 % of its response) it stands as the
-    locating sweep, the first design is one-sided under the ``auto`` law, and scouts step as
-    the probe does; on a noisy one the whole locating sweep and a two-sided design follow
+    ``probe`` (default ``"auto"``: on when the device states its dwell per acquisition, a
+    bench with a clock; ``true``/``false`` force it): the run's first look at the band is a
+    probe of a third of the locating sweep's points (at least 21). On a quiet bench (the probe
+    shows both modes and its noise is under 2 % of its response) it stands as the locating
+    sweep, the first design is one-sided under the ``auto`` law, and scouts step as the probe
+    does; on a noisy one the whole locating sweep and a two-sided design follow
     (:mod:`sysid_core.run.locating`). With a clock (docs/bench-time.md) the cloverleaf reaches
     a true split of 1 mHz in a median of 14.4 minutes with one tone instead of 30.0.
 
@@ -220,8 +221,15 @@ class ExperimentConfig(_Strict):
     max_points: int = Field(20_000, ge=11)
     max_passes: int = Field(1, ge=1, le=64)
     locate_points: int = Field(61, ge=11, le=4001)
-    probe: bool = False
+    probe: StrictBool | Literal["auto"] = "auto"
     timeout_s: float | None = Field(None, gt=0)
+
+    @field_validator("probe", mode="before")
+    @classmethod
+    def _probe(cls, v: object) -> object:
+        if v is True or v is False or v == "auto":
+            return v
+        raise ValueError('must be true, false or "auto" (probe on a bench with a clock)')
 
     @field_validator("band_hz")
     @classmethod

@@ -6,20 +6,23 @@ tone every point costs a dwell (10 s on the cloverleaf: 10 minutes for the 61 po
 the modes as well. At 60 dB it does not serve as well: the fits of the fast gyros lean on the
 far response that the locating sweep measures, and its points are few to average the noise.
 
-So with ``[experiment] probe = true`` the run measures a *probe* first, every third point of
-the locating sweep (:func:`probe_points`: 21 of 61), and keeps it as the locating sweep when it
-shows both modes and its measured noise is under :data:`QUIET_NOISE` of its response
-(:func:`bench_noise`): the bench is then *quiet*. Otherwise the whole locating sweep follows at
-the same bias, as without a probe, and the probe is kept with every other sweep. The same
-measurement decides the first design (:meth:`~sysid_core.run.context.RunContext.design`): on a
-quiet bench, under the ``auto`` stiffness law, the first design is one-sided (``n + 1``
-biases), the designs after it two-sided; and scouts step as the probe did.
+So on a bench with a clock (``[experiment] probe = "auto"``, the default: the device states its
+dwell per acquisition, :func:`probe_first`), or with ``probe = true``, the run measures a *probe*
+first, every third point of the locating sweep (:func:`probe_points`: 21 of 61), and keeps it as
+the locating sweep when it shows both modes and its measured noise is under :data:`QUIET_NOISE` of
+its response (:func:`bench_noise`): the bench is then *quiet*. Otherwise the whole locating sweep
+follows at the same bias, as without a probe, and the probe is kept with every other sweep. The
+same measurement decides the first design (:meth:`~sysid_core.run.context.RunContext.design`): on a
+quiet bench, under the ``auto`` stiffness law, the first design is one-sided (``n + 1`` biases),
+the designs after it two-sided; and scouts step as the probe did.
 
 Measured with a clock (docs/bench-time.md): the cloverleaf, whose electrodes follow ``v²``,
 reaches a true split of 1 mHz in a median of 14.4 minutes with one tone instead of 30.0, and
 4.4 with 8 tones instead of 5.1. Random gyros, whose laws are not ``v²``, pay for the one-sided
-first design about what the shorter locating sweep saves them, and the uncontrolled lab (60 dB,
-where nearly every probe is noisy) ends fewer gyros within 2 mHz: an option, not the default.
+first design about what the shorter locating sweep saves them. In the uncontrolled lab (60 dB,
+where nearly every probe is noisy) it ended fewer gyros within 2 mHz on the draws of the noise
+the code had been developed on, as many on fresh draws. A device without a clock (nothing
+says what a point costs) keeps the whole locating sweep first, as before.
 
 Why the whole locating sweep again rather than the probe's missing two thirds: completed by a
 second pass interleaved with the first, the points around a mode come from two times a quarter
@@ -37,6 +40,7 @@ import xarray as xr
 
 from sysid_core.data.schema import measured_mask
 from sysid_core.model.fitted import FittedModel
+from sysid_core.run.benchtime import stated_dwell
 from sysid_core.run.evidence import WindowAssessment, noise_share
 from sysid_core.run.sweeps import SweepPlan
 from sysid_core.run.zoom import zoom_grid
@@ -47,6 +51,7 @@ __all__ = [
     "QUIET_NOISE",
     "bench_noise",
     "locate",
+    "probe_first",
     "probe_points",
 ]
 
@@ -61,6 +66,17 @@ PROBE_MIN_POINTS = 21
 
 #: One sweep at the run's bias: frequencies, file, whole band or not -> data, model, evidence.
 SweepAt = Callable[[np.ndarray, Path, bool], tuple[xr.Dataset, FittedModel, WindowAssessment]]
+
+
+def probe_first(setting: bool | str, device: object) -> bool:
+    """Whether a run's first look at the band is a probe (``[experiment] probe``).
+
+    ``True`` and ``False`` say so; ``"auto"`` probes when the device states its own dwell per
+    acquisition (a positive ``dwell_s``: a bench with a clock, where a point costs seconds).
+    """
+    if setting != "auto":
+        return bool(setting)
+    return stated_dwell(device) is not None
 
 
 def probe_points(locate_points: int) -> int:

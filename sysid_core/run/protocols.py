@@ -42,7 +42,7 @@ from sysid_core.run.lean import (
     scout_grid,
 )
 from sysid_core.run.locating import locate as locate_modes
-from sysid_core.run.locating import probe_points
+from sysid_core.run.locating import probe_first, probe_points
 from sysid_core.run.passes import repeat_window
 from sysid_core.run.previous import PreviousModel
 from sysid_core.run.sweeps import SweepPlan
@@ -367,7 +367,11 @@ class LeanProtocol(Protocol):
         probe = None
         probing = locate_plan(ctx.plan, probe_points(points))
         # the run's first look at the band, on a bench that may be quiet
-        looked = first is locate and not len(self.known) and ctx.config.experiment.probe
+        looked = (
+            first is locate
+            and not len(self.known)
+            and probe_first(ctx.config.experiment.probe, ctx.bench.device.device)
+        )
         if looked:
             probe = probing.band()
             probe = probe if probe.size < locate.size else None

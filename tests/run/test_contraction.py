@@ -63,6 +63,9 @@ def test_a_slow_fall_measures_the_local_design_and_ends_under_the_acceptance(
             "acceptance_hz": 0.002,
             "max_iterations": 4,
         },
+        # found with the whole locating sweep first: with the probe (the default on a bench
+        # with a clock) the first answers of gyro 108 fall fast enough
+        "experiment": {"probe": False},
     }
     lines: list[str] = []
     result = tune(config, tmp_path / "run", plots=False, device=device, progress=lines.append)
