@@ -364,14 +364,10 @@ class LeanProtocol(Protocol):
             first = mode_grid(guess, ctx.plan)
         points = ctx.config.experiment.locate_points
         denser = locate_plan(ctx.plan, 4 * (points - 1) + 1).band()
-        probe = None
-        probing = locate_plan(ctx.plan, probe_points(points))
+        probe, probing = None, locate_plan(ctx.plan, probe_points(points))
         # the run's first look at the band, on a bench that may be quiet
-        looked = (
-            first is locate
-            and not len(self.known)
-            and probe_first(ctx.config.experiment.probe, ctx.bench.device.device)
-        )
+        setting, device = ctx.config.experiment.probe, ctx.bench.device.device
+        looked = first is locate and not len(self.known) and probe_first(setting, device)
         if looked:
             probe = probing.band()
             probe = probe if probe.size < locate.size else None

@@ -19,7 +19,7 @@ from sysid_core.run import lean
 from sysid_core.run.config import ExperimentConfig, parse_config
 from sysid_core.run.evidence import local_steps
 from sysid_core.run.lean import ModeGuess, mode_grid, scout_grid
-from sysid_core.run.locating import QUIET_NOISE, probe_points
+from sysid_core.run.locating import QUIET_NOISE, probe_first, probe_points
 from sysid_core.run.pipeline import TuningRun
 from sysid_core.run.sweeps import MIN_POINTS, SweepPlan
 
@@ -192,6 +192,42 @@ def test_a_probe_on_a_noisy_bench_is_followed_by_the_locating_sweep_and_a_two_si
     # the probe is fitted with every other sweep of the iteration
     sweeps = len([f for f in files(tmp_path, "iter01") if f.startswith("exp")])
     assert any(line.endswith(f"model to {sweeps} sweeps") for line in lines), lines
+
+
+class Timed:
+    """Something that states a dwell per acquisition, or not."""
+
+    def __init__(self, dwell_s: object) -> None:
+        self.dwell_s = dwell_s
+
+
+def test_the_probe_by_default_only_where_the_device_has_a_clock() -> None:
+    assert ExperimentConfig().probe == "auto"
+    assert probe_first("auto", Timed(10.2))
+    for no_clock in (Timed(None), Timed(0.0), Timed(float("nan")), Timed("x"), object()):
+        assert not probe_first("auto", no_clock)
+    assert probe_first(True, object()) and not probe_first(False, Timed(10.2))
+    with pytest.raises(ConfigError, match=r'probe = \'yes\': must be true, false or "auto"'):
+        parse_config({**MAIN_JOB, "experiment": {"probe": "yes"}})
+    with pytest.raises(ConfigError, match='must be true, false or "auto"'):
+        parse_config({**MAIN_JOB, "experiment": {"probe": 1}})
+
+
+def test_a_clocked_device_is_probed_by_default_and_one_without_a_clock_is_not(
+    tmp_path: Path,
+) -> None:
+    config = parse_config({**MAIN_JOB, "tuning": {**MAIN_JOB["tuning"], "max_iterations": 1}})
+    frozen = Recording(seed=1)
+    TuningRun(config, tmp_path / "frozen", device=frozen, plots=False).run()
+    clocked = Recording(seed=1, bench={"clock": True, "seed": 1})
+    assert clocked.dwell_s > 0 and getattr(frozen, "dwell_s", None) is None
+    lines: list[str] = []
+    TuningRun(
+        config, tmp_path / "clocked", device=clocked, plots=False, progress=lines.append
+    ).run()
+    # the same configuration: the whole locating sweep without a clock, the probe with one
+    assert frozen.calls[0][1] == lean.LOCATE_POINTS and clocked.calls[0][1] == 21
+    assert any(line.startswith("iter01/exp0.nc: a probe of 21 points") for line in lines)
 
 
 def test_a_locating_sweep_no_larger_than_a_probe_is_judged_itself(tmp_path: Path) -> None:
