@@ -112,7 +112,8 @@ def one(
             "electrodes": list(device.electrodes[: max(electrodes, 2)]),
             "start_bias": [0.0] * len(device.electrodes),
             "acceptance_hz": ACCEPTANCE,
-            "max_iterations": iterations,
+            # 0: the defaults, the bench-time budget ends a long run
+            **({"max_iterations": iterations} if iterations else {}),
         },
         "experiment": {
             **(experiment or {}),
@@ -171,10 +172,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--bench", choices=sorted(BENCHES), default="lab")
     parser.add_argument(
-        "--drift", default="none", choices=["none", "common", "offsets", "trend", "track"]
+        "--drift", default="none", choices=["auto", "none", "common", "offsets", "trend", "track"]
     )
     parser.add_argument("--seeds", default="101-124")
-    parser.add_argument("--iterations", type=int, default=4, help="max_iterations (4)")
+    parser.add_argument(
+        "--iterations", type=int, default=4, help="max_iterations (4; 0: the default cap)"
+    )
     parser.add_argument("--tones", type=int, default=1, help="tones per acquisition (1)")
     parser.add_argument(
         "--max-passes", type=int, default=None, help="[experiment] max_passes (its default)"

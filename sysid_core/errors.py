@@ -11,6 +11,7 @@ from __future__ import annotations
 
 __all__ = [
     "BiasLimitError",
+    "BudgetSpentError",
     "ConfigError",
     "DataError",
     "DeviceError",
@@ -132,6 +133,14 @@ class DeviceError(SysidError, RuntimeError):
 
 class BiasLimitError(SysidError, ValueError):
     """A bias outside the device's limits was about to be applied. It never is."""
+
+
+class BudgetSpentError(SysidError, RuntimeError):
+    """The run's bench-time budget (``[tuning] max_bench_minutes``) is spent.
+
+    Raised before a measurement that would end past it; a run that has verified an answer
+    ends with it instead (:mod:`sysid_core.run.budget`).
+    """
 
 
 class UnreachableTuningError(SysidError, RuntimeError):

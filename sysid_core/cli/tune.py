@@ -102,7 +102,9 @@ def tune_cmd(
         more = (
             "a finer DAC, another tuned electrode or a wider [tuning] acceptance_hz"
             if DAC_LIMITS in summary.status
-            else "run again with more [tuning] max_iterations in a new --out"
+            else "a larger [tuning] max_bench_minutes, in a new --out"
+            if summary.stopped is not None
+            else "run again with a larger [tuning] max_iterations in a new --out"
         )
         raise NotConvergedError(
             f"{summary.status}; results in {target}/ ({more}, or inspect {target}/summary.json)",

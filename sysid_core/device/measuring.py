@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from sysid_core.device.capabilities import Capabilities, read_capabilities
 from sysid_core.device.protocol import Device, SimulatedDevice, check_device
 from sysid_core.errors import BiasLimitError, DeviceError, InvalidAnswerError, SysidError
 
@@ -232,7 +233,9 @@ class GuardedDevice:
     Parameters
     ----------
     device : Device
-        The device; its protocol attributes are checked here (:func:`check_device`).
+        The device; its protocol attributes are checked here (:func:`check_device`), and its
+        optional capabilities read and checked once
+        (:func:`~sysid_core.device.capabilities.read_capabilities`).
     name : str
         Its name, for messages.
     timeout_s : float or None
@@ -241,6 +244,8 @@ class GuardedDevice:
 
     def __init__(self, device: object, name: str, timeout_s: float | None = None) -> None:
         self.device = check_device(device, name)
+        #: What the device states of its bench (tones, dwell, settling, ...), checked once.
+        self.capabilities: Capabilities = read_capabilities(self.device, name)
         self.name = name
         self.timeout_s = timeout_s
         self.labels: tuple[list[str], list[str]] | None = None

@@ -1,4 +1,11 @@
-"""The run's bench: its device and folder; every measurement checked, saved first, counted."""
+"""The run's bench: its device and folder; every measurement checked, saved first, counted.
+
+The device's clock is read here once per measurement: its stamps (checked finite by
+:func:`sysid_core.device.measuring.check_answer`) must not run backwards from one measurement
+to the next (the contract's one monotonic clock per run), and their span is the run's bench
+time (:attr:`Bench.clock_span_s`). Before a measurement is made, the run's ``guard`` may refuse
+it (the bench-time budget, :mod:`sysid_core.run.budget`).
+"""
 
 from __future__ import annotations
 
@@ -11,7 +18,7 @@ import xarray as xr
 from sysid_core.data.runfolder import RunFolder
 from sysid_core.data.schema import experiment_from_measurement, point_times
 from sysid_core.device.measuring import GuardedDevice
-from sysid_core.errors import DeviceError
+from sysid_core.errors import DeviceError, InvalidAnswerError
 from sysid_core.run.benchtime import acquisitions, points_per_frequency
 
 __all__ = ["Bench"]
@@ -38,6 +45,9 @@ class Bench:
         The run built the device (then :meth:`close` closes it).
     tones : int
         Frequencies one acquisition measures (:func:`sysid_core.run.benchtime.tones`).
+    guard : callable, optional
+        Called before a measurement is made (not when one is read) with its acquisitions and
+        whether the bias changes; raises to refuse it.
     """
 
     def __init__(
@@ -50,6 +60,7 @@ class Bench:
         say: Callable[[str], None],
         owns_device: bool,
         tones: int = 1,
+        guard: Callable[[int, bool], None] | None = None,
     ) -> None:
         self.device = device
         self.folder = folder
@@ -59,6 +70,7 @@ class Bench:
         self.say = say
         self.owns_device = owns_device
         self.tones = max(int(tones), 1)
+        self.guard = guard
         #: Measurements made or read so far, their frequency points, their acquisitions
         #: (``tones`` points each) and the bias changes before them.
         self.measurements = 0
@@ -71,16 +83,25 @@ class Bench:
         self.first_s: float | None = None
         self.last_s: float | None = None
         self.untimed = 0
+        #: The latest stamp of a measurement this process made (not read): the next must not
+        #: be earlier.
+        self._clock_s: float | None = None
 
     def measure(self, bias: np.ndarray, freqs: np.ndarray, path: Path) -> xr.Dataset:
         """Read ``path`` if it holds this measurement (resume), else measure and save it first."""
+        per = points_per_frequency(self.device.capabilities)
+        n_acq = acquisitions(int(freqs.size), self.tones) * per
+        changes = self._last_bias is None or not np.array_equal(self._last_bias, bias)
 
         def measure() -> xr.Dataset:
+            if self.guard is not None:
+                self.guard(n_acq, changes)
             self.say(
                 f"measuring at [{', '.join(f'{b:.4f}' for b in bias)}] V, "
                 f"{freqs[0]:.3f}-{freqs[-1]:.3f} Hz, {freqs.size} points"
             )
             da = self.device.measure(bias, freqs)
+            self._check_clock(da)
             return experiment_from_measurement(
                 da, bias, self.electrodes, self.structure_potential, self.name
             )
@@ -89,10 +110,9 @@ class Bench:
         if was_read:
             self.say(f"read {path.relative_to(self.folder.path)} (measured earlier)")
         self.measurements += 1
-        per = points_per_frequency(self.device.device)
         self.points += int(freqs.size) * per
-        self.acquisitions += acquisitions(int(freqs.size), self.tones) * per
-        if self._last_bias is None or not np.array_equal(self._last_bias, bias):
+        self.acquisitions += n_acq
+        if changes:
             self.bias_changes += 1
         self._last_bias = np.array(bias, dtype=float)
         times = point_times(ds, 0)
@@ -103,6 +123,23 @@ class Bench:
             self.first_s = low if self.first_s is None else min(self.first_s, low)
             self.last_s = high if self.last_s is None else max(self.last_s, high)
         return ds
+
+    def _check_clock(self, answer: xr.DataArray) -> None:
+        """Refuse an answer whose stamps start before the previous answer's last one."""
+        if "time_s" not in answer.coords or answer["time_s"].size == 0:
+            return
+        t = np.asarray(answer["time_s"].values, dtype=float)
+        low, high = float(t.min()), float(t.max())
+        if self._clock_s is not None and low < self._clock_s:
+            exc = InvalidAnswerError(
+                f"device {self.name!r}: its clock ran backwards: this measurement's first time "
+                f"stamp {low:.6g} s is before the previous measurement's last, "
+                f"{self._clock_s:.6g} s; time_s must come from one monotonic clock for the "
+                "whole run (docs/contracts.md)"
+            )
+            exc.answer = answer  # type: ignore[attr-defined]  # kept in rejected/
+            raise exc
+        self._clock_s = high
 
     @property
     def clock_span_s(self) -> float | None:

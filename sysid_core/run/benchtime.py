@@ -9,7 +9,8 @@ measures up to ``tones`` frequencies at once: a lock-in with several demodulator
 multisine) and its bias changes, and estimates ``bench_time_s = acquisitions × dwell_s +
 bias changes × settle_s``. Each figure comes from, in this order:
 
-* the device's own attribute (``dwell_s`` seconds per acquisition, ``tones``, ``settle_s``);
+* the device's own attribute (``dwell_s`` seconds per acquisition, ``tones``, ``settle_s``),
+  read and checked once (:mod:`sysid_core.device.capabilities`);
 * the configuration's ``[experiment] dwell_s``, ``tones``, ``settle_s``;
 * estimated from the data: the dwell ``5 Q/ω`` of the sharpest mode of the last fitted model
   (2.5 time constants; 8.1 s for Q = 45 000 at 4.4 kHz); one tone; the settling ``3 × 2Q/ω``
@@ -25,6 +26,7 @@ import math
 
 import numpy as np
 
+from sysid_core.device.capabilities import Capabilities
 from sysid_core.model.fitted import FittedModel
 
 __all__ = [
@@ -45,25 +47,23 @@ DWELL_TIME_CONSTANTS = 5.0
 SETTLE_TIME_CONSTANTS = 3.0
 
 
-def points_per_frequency(device: object) -> int:
+def points_per_frequency(caps: Capabilities) -> int:
     """How many measurements a device makes per frequency point (default 1).
 
     The device's ``points_per_frequency``, e.g. 2 for an analyzer that drives the two inputs one
     after the other.
     """
-    value = getattr(device, "points_per_frequency", 1)
-    return value if isinstance(value, int) and value >= 1 else 1
+    return caps.per_frequency
 
 
-def tones(device: object, cfg_tones: int | None = None) -> int:
+def tones(caps: Capabilities, cfg_tones: int | None = None) -> int:
     """How many frequencies one acquisition of the device measures (default 1).
 
     The device's ``tones`` (the bench clock's acquisition capability), else the configuration's
     ``[experiment] tones``, else 1.
     """
-    value = getattr(device, "tones", None)
-    if isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value >= 1:
-        return int(value)
+    if caps.tones is not None:
+        return caps.tones
     return int(cfg_tones) if cfg_tones is not None and cfg_tones >= 1 else 1
 
 
@@ -73,7 +73,7 @@ def acquisitions(n_frequencies: int, tones: int) -> int:
 
 
 def settle(
-    device: object, cfg_settle: float | None = None, model: FittedModel | None = None
+    caps: Capabilities, cfg_settle: float | None = None, model: FittedModel | None = None
 ) -> tuple[float | None, str | None]:
     """Seconds the gyro needs after a bias change and where they come from.
 
@@ -81,13 +81,8 @@ def settle(
     settle_s`` (``"config"``), else :data:`SETTLE_TIME_CONSTANTS` time constants ``2Q/ω`` of
     the slowest mode of ``model`` (``"estimated 3 τ"``); ``(None, None)`` if nothing says.
     """
-    own = getattr(device, "settle_s", None)
-    try:
-        value = float(own) if own is not None else None
-    except (TypeError, ValueError):
-        value = None
-    if value is not None and math.isfinite(value) and value >= 0:
-        return value, "device"
+    if caps.settle_s is not None:
+        return caps.settle_s, "device"
     if cfg_settle is not None:
         return float(cfg_settle), "config"
     modes = _fitted_modes(model)
@@ -115,31 +110,23 @@ def _fitted_modes(model: FittedModel | None) -> tuple[np.ndarray, np.ndarray] | 
     return (f[ok], q[ok]) if np.any(ok) else None
 
 
-def _positive(value: object) -> float | None:
-    try:
-        x = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        return None
-    return x if math.isfinite(x) and x > 0 else None
-
-
-def stated_dwell(device: object) -> float | None:
+def stated_dwell(caps: Capabilities) -> float | None:
     """The dwell per acquisition the device states itself (``dwell_s``), or ``None``.
 
     A device that states one has a clock: each acquisition costs that many seconds.
     """
-    return _positive(getattr(device, "dwell_s", None))
+    return caps.dwell_s
 
 
 def dwell(
-    device: object, cfg_dwell: float | None, model: FittedModel | None
+    caps: Capabilities, cfg_dwell: float | None, model: FittedModel | None
 ) -> tuple[float | None, str | None]:
     """The dwell per acquisition (seconds) and where it comes from.
 
     The source is ``"device"``, ``"config"`` or ``"estimated 5 Q/ω"``; ``(None, None)`` if
     nothing says (no model to estimate from).
     """
-    own = stated_dwell(device)
+    own = caps.dwell_s
     if own is not None:
         return own, "device"
     if cfg_dwell is not None:

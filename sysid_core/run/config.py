@@ -7,7 +7,8 @@ Tables (the public contract, docs/contracts.md)::
     [model.options]   the structure's other options
     [objective]       name = "least-squares" | "minimax", plus the objective's options
     [solver]          name = "clarabel" | "scs", plus the solver's options
-    [tuning]          criterion, start_bias, acceptance_hz, max_iterations, aim, electrodes
+    [tuning]          criterion, start_bias, acceptance_hz, max_iterations, max_bench_minutes,
+                      aim, electrodes
                       (subset to tune), and the criterion options target_hz, tolerance_hz
     [tuning.options]  the criterion's other options
     [experiment]      band_hz, resolution_hz, bias_step, refine_span_hz, refine_resolution_hz,
@@ -116,13 +117,25 @@ class SolverConfig(BaseModel):
         return dict(self.model_extra or {})
 
 
+#: The default of ``[tuning] max_iterations``: a cap that does not bind before the bench-time
+#: budget (an iteration that measures only its verification costs a minute or more of a bench).
+DEFAULT_MAX_ITERATIONS = 50
+
+
 class TuningConfig(_Strict):
-    """``[tuning]``."""
+    """``[tuning]``.
+
+    ``max_bench_minutes`` bounds the run by the bench clock (the device's time stamps, else the
+    estimated bench time): no measurement starts that would end past it; unset, it is the
+    larger of an hour and 720 dwells of the gyro (:mod:`sysid_core.run.budget`).
+    ``max_iterations`` (default 50) only caps the iterations; no verdict depends on it.
+    """
 
     criterion: str = "degenerate"
     start_bias: list[float] | None = None
     acceptance_hz: float = Field(0.01, gt=0)
-    max_iterations: int = Field(3, ge=1, le=50)
+    max_iterations: int = Field(DEFAULT_MAX_ITERATIONS, ge=1, le=1000)
+    max_bench_minutes: float | None = Field(None, gt=0)
     aim: float | None = Field(None, gt=0, le=1)
     target_hz: float | None = Field(None, gt=0)
     electrodes: list[str] | None = None

@@ -31,6 +31,16 @@ class RunContext:
     bench: Bench
     fitter: Fitter
     say: Callable[[str], None]
+    #: How many iterations the run can still start (the bench-time budget's,
+    #: :meth:`sysid_core.run.budget.Budget.iterations_left`); None: the cap's alone.
+    afford: Callable[[], int] | None = None
+
+    def left(self) -> int:
+        """Iterations the run can still start, this one included if it has not measured yet.
+
+        What the verdicts that look ahead count (:func:`sysid_core.run.contraction.too_slow`).
+        """
+        return self.afford() if self.afford is not None else self.config.tuning.max_iterations
 
     def step(self, it: int) -> float:
         """The bias step of iteration ``it`` (volts)."""

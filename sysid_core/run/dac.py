@@ -17,6 +17,7 @@ import itertools
 import numpy as np
 
 from sysid_core.data.schema import squared_potentials
+from sysid_core.device.capabilities import read_capabilities
 from sysid_core.device.measuring import GuardedDevice, applied_bias
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import modal_frequencies_hz
@@ -29,14 +30,9 @@ MAX_ELECTRODES = 8
 
 
 def bias_resolution(device: object) -> float | None:
-    """The device's DAC step in volts, if it states a positive finite one."""
-    raw = device.device if isinstance(device, GuardedDevice) else device
-    value = getattr(raw, "bias_resolution", None)
-    try:
-        step = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        return None
-    return step if np.isfinite(step) and step > 0 else None
+    """The device's DAC step in volts, if it states one (its checked capabilities)."""
+    caps = device.capabilities if isinstance(device, GuardedDevice) else read_capabilities(device)
+    return caps.bias_resolution
 
 
 def predicted_modes_hz(model: FittedModel, w: np.ndarray) -> np.ndarray:

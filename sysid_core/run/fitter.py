@@ -159,6 +159,32 @@ class Fitter:
             )
         return model, assess_window(sweep, model, band=band)
 
+    def found(self, model: FittedModel) -> list[str]:
+        """What a fit of this fitter found, for the run's progress: drift, law, trend."""
+        lines, meta = [], model.meta
+        rate = meta.get("drift_rate_per_h")
+        if rate is not None:
+            hz = float(rate) * model.omega_center / (2 * np.pi)
+            lines.append(
+                f"drift {hz * 1e3:+.4g} mHz/h common ({float(rate) * 1e6:+.3g} ppm/h, from the "
+                "time stamps)"
+            )
+        law = meta.get("stiffness_law")
+        if law is not None and not meta.get("from_model"):
+            stat, limit = meta.get("law_statistic"), meta.get("law_threshold")
+            part = " that split the modes" if meta.get("law_tested") == "split" else ""
+            test = (
+                f" (test of the L_p terms{part} {stat:.3g} "
+                f"{'>' if law == 'quadratic' else '<='} {limit:.3g})"
+                if stat is not None and limit is not None
+                else f" ({meta.get('law_test')})"
+            )
+            lines.append(f"stiffness law {law}{test}")
+        if self.tracked and "drift_trend" in meta:
+            hours = float(meta.get("time_span_s", 0.0)) / 3600.0
+            lines.append(f"the sweeps span {hours:.2g} h; the fit carries their trend")
+        return lines
+
     def twin(self, sweep: xr.Dataset) -> tuple[float, float] | None:
         """How many times better :attr:`twin_structure` fits a window, and its split (Hz).
 

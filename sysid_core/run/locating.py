@@ -40,6 +40,7 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.data.schema import measured_mask
+from sysid_core.device.capabilities import Capabilities
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.benchtime import stated_dwell
 from sysid_core.run.evidence import WindowAssessment, noise_share
@@ -69,15 +70,15 @@ PROBE_MIN_POINTS = 21
 SweepAt = Callable[[np.ndarray, Path, bool], tuple[xr.Dataset, FittedModel, WindowAssessment]]
 
 
-def probe_first(setting: bool | str, device: object) -> bool:
+def probe_first(setting: bool | str, caps: Capabilities) -> bool:
     """Whether a run's first look at the band is a probe (``[experiment] probe``).
 
     ``True`` and ``False`` say so; ``"auto"`` probes when the device states its own dwell per
-    acquisition (a positive ``dwell_s``: a bench with a clock, where a point costs seconds).
+    acquisition (``caps``: a bench with a clock, where a point costs seconds).
     """
     if setting != "auto":
         return bool(setting)
-    return stated_dwell(device) is not None
+    return stated_dwell(caps) is not None
 
 
 def probe_points(locate_points: int) -> int:

@@ -178,7 +178,7 @@ def repeat_window(
         evidence.split_hz,
         config.tuning.acceptance_hz,
         exp.max_passes,
-        pass_duration_s(sweep, dwell(bench.device.device, exp.dwell_s, model)[0]),
+        pass_duration_s(sweep, dwell(bench.device.capabilities, exp.dwell_s, model)[0]),
     )
     if n <= 1:
         return first

@@ -16,7 +16,9 @@
 
 The run converges when a verification is *verified* and every goal of the criterion is met (the
 split under ``acceptance_hz``; for ``target``, also the frequency error). Otherwise it goes on
-from the new bias until ``max_iterations``.
+from the new bias until the bench-time budget is spent (``[tuning] max_bench_minutes``: no
+measurement starts that would end past it, :mod:`sysid_core.run.budget`) or ``max_iterations``
+(a cap) is reached.
 
 Everything is checked before the first measurement: the configuration, every plugin (built
 here), the device's protocol attributes, the bias limits, the sweeps and the first design. Every
@@ -38,21 +40,25 @@ from sysid_core.data.io import write_json
 from sysid_core.data.runfolder import RunFolder
 from sysid_core.device.measuring import GuardedDevice, check_bias
 from sysid_core.device.protocol import Device, ReportsProgress
-from sysid_core.errors import ConfigError
+from sysid_core.errors import BudgetSpentError, ConfigError
 from sysid_core.identification.objective import Progress
 from sysid_core.model.fitted import FittedModel
 from sysid_core.plugin.registry import Registry, get_registry
 from sysid_core.run.answer import Answer, answer
 from sysid_core.run.bench import Bench
-from sysid_core.run.benchtime import dwell, settle, tones
+from sysid_core.run.benchtime import tones
+from sysid_core.run.budget import Budget
+from sysid_core.run.clock import RunClock
 from sysid_core.run.components import build_components
 from sysid_core.run.config import PipelineConfig
 from sysid_core.run.fitter import Fitter
 from sysid_core.run.judgement import aim_fraction, verdict
 from sysid_core.run.plots import PLOT_FORMATS, plot_bias_path, plot_iteration
+from sysid_core.run.previous import check_prior
 from sysid_core.run.protocols import RunContext, make_protocol
 from sysid_core.run.summary import IterationRecord, Least, RunSummary, least_measured, summarize
 from sysid_core.run.sweeps import SweepPlan
+from sysid_core.run.timeline import plot_timeline
 from sysid_core.run.tracking import Tracker
 from sysid_core.run.verification import Verification
 from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion
@@ -131,10 +137,11 @@ class TuningRun:
         )
         check_bias(dev, self.space.start_bias)
         folder = RunFolder(self.out, config.digest())
+        guarded = GuardedDevice(dev, config.device.name, config.experiment.timeout_s)
         #: Frequencies per acquisition: the device's, else the configuration's, else 1.
-        acquisition_tones = tones(dev, config.experiment.tones)
+        acquisition_tones = tones(guarded.capabilities, config.experiment.tones)
         self.bench = Bench(
-            GuardedDevice(dev, config.device.name, config.experiment.timeout_s),
+            guarded,
             folder,
             self.electrodes,
             self.space.structure_potential,
@@ -142,6 +149,13 @@ class TuningRun:
             self.say,
             owns_device=device is None,
             tones=acquisition_tones,
+            guard=lambda n, changes: self.clock.guard(n, changes),
+        )
+        #: The bench clock: what the measurements cost, what the run spent and may spend.
+        self.clock = RunClock(
+            self.bench,
+            config.experiment,
+            Budget(config.tuning.max_bench_minutes, config.tuning.max_iterations),
         )
         self.fitter = Fitter.of(
             config.model.drift, self.structure, self.objective, self.solver, parts.twin
@@ -149,7 +163,15 @@ class TuningRun:
         #: The verified windows and the model moved ahead (``drift = "track"`` or ``"auto"``).
         self.tracker = Tracker.of(config.model.drift, config.tuning.acceptance_hz)
         plan = SweepPlan.from_config(config.experiment, dev.band_hz, tones=acquisition_tones)
-        context = RunContext(config, self.space, plan, self.bench, self.fitter, self.say)
+        context = RunContext(
+            config,
+            self.space,
+            plan,
+            self.bench,
+            self.fitter,
+            self.say,
+            afford=self.clock.left,
+        )
         context.design(self.space.start_bias)  # the first design: limits and rank condition
         if from_model is not None:
             check_prior(from_model, self.space.tuned)
@@ -200,16 +222,19 @@ class TuningRun:
         center: float | None = None
         for it in range(1, cfg.max_iterations + 1):
             folder = self.out / f"iter{it:02d}"
-            t0 = time.perf_counter()
-            ds, model = self._identify(it, bias, folder, center, split)
-            fit_time = time.perf_counter() - t0
-            aim = aim_fraction(cfg.aim, self.tracking)
-            now = self._track(it, model, ds) if self.tracking else model
-            step = self._answer(it, now, bias, folder, least_measured(history))
-            # the fit of every sweep, if the local one fell short
-            now = step.model if step.model is not None else now
+            try:
+                t0 = time.perf_counter()
+                ds, model = self._identify(it, bias, folder, center, split)
+                fit_time = time.perf_counter() - t0
+                aim = aim_fraction(cfg.aim, self.tracking)
+                now = self._track(it, model, ds) if self.tracking else model
+                step = self._answer(it, now, bias, folder, least_measured(history))
+                # the fit of every sweep, if the local one fell short
+                now = step.model if step.model is not None else now
+                ver = self.protocol.verify(step.bias, step.result, now, folder)
+            except BudgetSpentError as exc:
+                return self._budget_spent(it, exc, summary)
             regions.append(step.result.confidence)
-            ver = self.protocol.verify(step.bias, step.result, now, folder)
             ver.model.save(folder / "verify-model.nc")
             if self.tracking and self.tracker is not None:
                 self.tracker.learned(ver)
@@ -222,28 +247,21 @@ class TuningRun:
             path.append(bias.tolist())
             history.append(IterationRecord.of(it, ds, model, step.result, bias, ver, goals))
             history[-1].points = self.bench.points
+            spent = self.clock.spent_s()
+            self.clock.budget.ended(spent)
+            history[-1].bench_time_s = spent
             summary = summarize(
-                summary,
-                history,
-                ver,
-                goals,
-                converged,
-                measurements=self.bench.measurements,
-                points=self.bench.points,
-                dwell=dwell(
-                    self.bench.device.device, cfg_dwell=self.config.experiment.dwell_s, model=model
-                ),
-                acquisitions=self.bench.acquisitions,
-                bias_changes=self.bench.bias_changes,
-                settle=settle(self.bench.device.device, self.config.experiment.settle_s, model),
+                *(summary, history, ver, goals, converged),
+                bench=self.bench,
+                rates=self.clock.rates(model),
                 confidence=step.result.confidence,
                 notes=self.notes,
-                clock_span_s=self.bench.clock_span_s,
-                drift_hz_per_h=self.drift_hz_per_h,
-                drift_split_hz_per_h=self.drift_split_hz_per_h,
+                drift=(self.drift_hz_per_h, self.drift_split_hz_per_h),
+                budget_s=self.clock.limit_s,
             )
             write_json(self.out / "summary.json", summary.as_dict())
             self.say(f"iteration {it}: {ver.describe()} ({fit_time:.2f} s to identify)")
+            self.say(f"iteration {it}: {self.clock.describe(spent)}")
             self._plot(it, ds, model, ver, step, folder, path, history, regions)
             if stop is not None:
                 self.say(f"iteration {it}: {stop}")
@@ -255,6 +273,20 @@ class TuningRun:
             found = ver.frequencies_hz is not None
             center, split = (ver.frequency_hz, float(ver.split_hz or 0.0)) if found else (None, 0.0)
         return summary
+
+    def _budget_spent(self, it: int, exc: BudgetSpentError, summary: RunSummary) -> RunSummary:
+        """End at iteration ``it`` with the last verified answer (re-raise ``exc`` if none)."""
+        if not summary.iterations:
+            raise BudgetSpentError(
+                f"{exc}, before a first answer was verified; raise [tuning] max_bench_minutes "
+                "or measure fewer points (docs/bench-time.md)"
+            ) from None
+        self.notes.append(f"iteration {it}: stopped: {exc}; the run ends at its last answer")
+        self.say(self.notes[-1])
+        why = f"the bench-time budget of {self.clock.limit_s / 60:.3g} min is spent"
+        ended = summary.stopped_by(why, self.notes, self.clock.spent_s(), self.bench)
+        write_json(self.out / "summary.json", ended.as_dict())
+        return ended
 
     # ------------------------------------------------------------------ steps
     def _identify(
@@ -269,25 +301,10 @@ class TuningRun:
         rate = model.meta.get("drift_rate_per_h")
         if rate is not None:
             self.drift_hz_per_h = float(rate) * model.omega_center / (2 * np.pi)
-            self.say(
-                f"iteration {it}: drift {self.drift_hz_per_h * 1e3:+.4g} mHz/h common "
-                f"({float(rate) * 1e6:+.3g} ppm/h, from the time stamps)"
-            )
-        law = model.meta.get("stiffness_law")
-        if law is not None and not model.meta.get("from_model"):
-            stat, limit = model.meta.get("law_statistic"), model.meta.get("law_threshold")
-            part = " that split the modes" if model.meta.get("law_tested") == "split" else ""
-            test = (
-                f" (test of the L_p terms{part} {stat:.3g} "
-                f"{'>' if law == 'quadratic' else '<='} {limit:.3g})"
-                if stat is not None and limit is not None
-                else f" ({model.meta.get('law_test')})"
-            )
-            self.say(f"iteration {it}: stiffness law {law}{test}")
-        if self.fitter.tracked and "drift_trend" in model.meta:
-            hours = float(model.meta.get("time_span_s", 0.0)) / 3600.0
-            self.say(f"iteration {it}: the sweeps span {hours:.2g} h; the fit carries their trend")
+        for line in self.fitter.found(model):
+            self.say(f"iteration {it}: {line}")
         model.save(folder / "model.nc")
+        self.clock.latest = model
         return ds, model
 
     @property
@@ -300,9 +317,7 @@ class TuningRun:
     def _track(self, it: int, model: FittedModel, ds: xr.Dataset) -> FittedModel:
         """The model moved to the next verification's time (:attr:`tracking`)."""
         assert self.tracker is not None
-        # the device's or the configuration's settling, else estimated from this fit's Q
-        known = settle(self.bench.device.device, self.config.experiment.settle_s, model)[0]
-        self.tracker.settle_s = float(known or 0.0)
+        self.tracker.settle_s = self.clock.settle_s(model)
         self.tracker.refresh(ds, self.protocol.sweep, self.out / f"iter{it:02d}", self.say, it)
         now = self.tracker.now(model, ds, self.say, it)
         seen = self.tracker.rates
@@ -336,7 +351,7 @@ class TuningRun:
             self.bench.device,
             it,
             bias_step=self.config.experiment.bias_step,
-            last_iteration=it >= self.config.tuning.max_iterations,
+            last_iteration=self.clock.left() < 2,
             say=self.say,
             every_sweep=every_sweep,
             acceptance_hz=self.config.tuning.acceptance_hz,
@@ -380,18 +395,6 @@ class TuningRun:
             acceptance_hz=self.config.tuning.acceptance_hz,
             regions=regions,
         )
-
-
-def check_prior(model: FittedModel, tuned: list[str]) -> None:
-    """Refuse a previous model (``--from-model``) whose electrodes are not the tuned ones.
-
-    Raises
-    ------
-    ConfigError
-        Naming both lists.
-    """
-    if list(model.electrodes) != list(tuned):
-        raise ConfigError(
-            f"the model given (--from-model) has electrodes {list(model.electrodes)}, the run "
-            f"tunes {list(tuned)}: give a model fitted with the same [tuning] electrodes"
-        )
+        if self.bench.clock_span_s is not None:  # a bench with a clock: the split in time
+            limits = (self.config.tuning.acceptance_hz, self.clock.limit_s)
+            plot_timeline(history, self.out / f"drift.{self.plot_format}", *limits)

@@ -18,7 +18,7 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.data.schema import concat_experiments, point_times
-from sysid_core.errors import DataError
+from sysid_core.errors import ConfigError, DataError
 from sysid_core.identification.anchor import anchor
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.config import TuningConfig
@@ -27,7 +27,7 @@ from sysid_core.run.lean import ModeGuess, mode_grid
 from sysid_core.run.sweeps import SweepPlan
 from sysid_core.run.verification import Verification
 
-__all__ = ["PRIOR_BANDWIDTHS", "PRIOR_CONTRACTION", "PRIOR_WINDOWS", "PreviousModel"]
+__all__ = ["PRIOR_BANDWIDTHS", "PRIOR_CONTRACTION", "PRIOR_WINDOWS", "PreviousModel", "check_prior"]
 
 #: The first sweep spans this many bandwidths of uncertainty around the modes the previous
 #: model predicts (the gyro may have moved since).
@@ -46,18 +46,13 @@ class PreviousModel:
     ----------
     model : FittedModel
         The earlier run's model, over the electrodes this run tunes.
-    iterations : int
-        The run's iterations in all (``[tuning] max_iterations``).
     acceptance_hz : float
         The split the run must reach (``[tuning] acceptance_hz``).
     """
 
-    def __init__(
-        self, model: FittedModel, iterations: int = 1_000, acceptance_hz: float = 0.0
-    ) -> None:
+    def __init__(self, model: FittedModel, acceptance_hz: float = 0.0) -> None:
         self.model = model
-        self.iterations, self.acceptance_hz = iterations, acceptance_hz
-        self.judged = 0
+        self.acceptance_hz = acceptance_hz
         #: The sweeps measured so far that anchor it (the first grid, then the verifications).
         self.windows: list[xr.Dataset] = []
         self.last_split: float | None = None
@@ -67,7 +62,7 @@ class PreviousModel:
         """The previous model for a run with the ``[tuning]`` table ``tuning`` (None if none)."""
         if model is None:
             return None
-        return cls(model, tuning.max_iterations, tuning.acceptance_hz)
+        return cls(model, tuning.acceptance_hz)
 
     def first_grid(self, tuned_bias: np.ndarray, plan: SweepPlan) -> np.ndarray:
         """The first sweep's frequencies, at the tuned electrodes' biases ``tuned_bias``.
@@ -104,7 +99,7 @@ class PreviousModel:
         ds = concat_experiments(windows).sel(electrode=list(self.model.electrodes))
         return ds, model, found.sweeps
 
-    def judge(self, verification: Verification) -> str | None:
+    def judge(self, verification: Verification, left: int) -> str | None:
         """Why the model no longer helps, or None: then the verification's sweep anchors next.
 
         It no longer helps when the verification failed, its split did not fall to
@@ -112,11 +107,11 @@ class PreviousModel:
         be over the acceptance after the iterations left (a model whose law is off by a
         third shrinks the split about 3 times per iteration: 1.58 Hz, 0.42, 0.15, 0.036 in
         four iterations of the cloverleaf, where the local design reached 0.6 mHz;
-        :func:`~sysid_core.run.contraction.too_slow`).
+        :func:`~sysid_core.run.contraction.too_slow`); ``left``: the iterations the run can
+        still start (the bench-time budget's, :meth:`sysid_core.run.context.RunContext.left`).
         """
-        self.judged += 1
         split = verification.split_hz if verification.verified else None
-        last, left = self.last_split, self.iterations - self.judged
+        last = self.last_split
         if split is None or (last is not None and split > PRIOR_CONTRACTION * last):
             seen = "not verified" if split is None else f"{split * 1e3:.3g} mHz"
             return f"the model given did not bring the split down ({seen})"
@@ -126,3 +121,18 @@ class PreviousModel:
         self.last_split = split
         self.windows.append(verification.sweep)
         return None
+
+
+def check_prior(model: FittedModel, tuned: list[str]) -> None:
+    """Refuse a previous model (``--from-model``) whose electrodes are not the tuned ones.
+
+    Raises
+    ------
+    ConfigError
+        Naming both lists.
+    """
+    if list(model.electrodes) != list(tuned):
+        raise ConfigError(
+            f"the model given (--from-model) has electrodes {list(model.electrodes)}, the run "
+            f"tunes {list(tuned)}: give a model fitted with the same [tuning] electrodes"
+        )

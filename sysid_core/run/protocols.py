@@ -244,7 +244,7 @@ class LeanProtocol(Protocol):
         if not np.all(np.isfinite(bw) & (bw > 0)):
             bw = np.full(2, self.ctx.plan.verify_resolution_hz)
         exp = self.ctx.config.experiment
-        settle = settle_s(self.ctx.bench.device.device, exp.settle_s, model)[0] or 0.0
+        settle = settle_s(self.ctx.bench.device.capabilities, exp.settle_s, model)[0] or 0.0
         centre, sigma = self.known.centre(bias, self.ctx.space.index, predicted, model, settle)
 
         def window(
@@ -276,7 +276,7 @@ class LeanProtocol(Protocol):
             self.splits.append(float(ver.split_hz or 0.0))
             self.last_region = region
         if self.previous is not None:
-            why = self.previous.judge(ver)
+            why = self.previous.judge(ver, self.ctx.left())
             if why is not None:
                 self.ctx.say(f"{why}; measuring the local design from now on")
                 self.previous, self.local = None, True
@@ -295,8 +295,8 @@ class LeanProtocol(Protocol):
             first = self.previous.first_grid(bias[ctx.space.index], ctx.plan)
             self._learn(bias, folder / "exp0.nc", first=first)
             self.previous.windows.append(self.known.items[-1].data)
-        settle = float(getattr(ctx.bench.device.device, "settle_s", None) or 0.0)
-        ds, model, sweeps = self.previous.anchored(settle)
+        caps, exp = ctx.bench.device.capabilities, ctx.config.experiment
+        ds, model, sweeps = self.previous.anchored(settle_s(caps, exp.settle_s)[0] or 0.0)
         ctx.say(f"iteration {it}: the model given anchored on {sweeps} sweep(s), no design")
         return ds, (ds, model, [])
 
@@ -330,7 +330,7 @@ class LeanProtocol(Protocol):
                 f"{lo * 1e3:.3g}-{hi * 1e3:.3g} mHz"
             ), None
         tuning, last = self.ctx.config.tuning, self.splits[-2] if len(self.splits) > 1 else None
-        slow = too_slow(last, split, tuning.max_iterations - it + 1, tuning.acceptance_hz)
+        slow = too_slow(last, split, self.ctx.left(), tuning.acceptance_hz)
         if slow is not None:
             return slow, None
         union = self.known.union()
@@ -366,8 +366,8 @@ class LeanProtocol(Protocol):
         denser = locate_plan(ctx.plan, 4 * (points - 1) + 1).band()
         probe, probing = None, locate_plan(ctx.plan, probe_points(points))
         # the run's first look at the band, on a bench that may be quiet
-        setting, device = ctx.config.experiment.probe, ctx.bench.device.device
-        looked = first is locate and not len(self.known) and probe_first(setting, device)
+        setting, caps = ctx.config.experiment.probe, ctx.bench.device.capabilities
+        looked = first is locate and not len(self.known) and probe_first(setting, caps)
         if looked:
             probe = probing.band()
             probe = probe if probe.size < locate.size else None

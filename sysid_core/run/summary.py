@@ -16,7 +16,10 @@ import xarray as xr
 
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.answer import dac_floor
+from sysid_core.run.bench import Bench
+from sysid_core.run.budget import spent_s
 from sysid_core.run.verification import Verification
+from sysid_core.tuning.confidence import split_interval
 from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion, Goal, TuningResult
 
 __all__ = [
@@ -38,7 +41,12 @@ DAC_LIMITS = "the DAC limits it"
 
 @dataclass
 class IterationRecord:
-    """What one iteration did (``points``: frequency points measured by the run so far)."""
+    """What one iteration did.
+
+    ``points``: frequency points measured by the run so far; ``bench_time_s``: the bench time
+    spent by the end of its verification; ``measured_split_ci_hz``: the 95 % interval of the
+    split its verification measured (None without one).
+    """
 
     iteration: int
     experiments: list[list[float]]
@@ -53,6 +61,8 @@ class IterationRecord:
     gamma: float
     fit_time_s: float
     points: int = 0
+    bench_time_s: float | None = None
+    measured_split_ci_hz: list[float] | None = None
 
     @classmethod
     def of(
@@ -81,6 +91,7 @@ class IterationRecord:
             evidence=[w.as_dict() for w in ver.windows],
             gamma=model.gamma,
             fit_time_s=float(model.meta["fit_time_s"]),
+            measured_split_ci_hz=_interval(ver),
         )
 
     def as_dict(self) -> dict[str, Any]:
@@ -130,6 +141,11 @@ class RunSummary:
     bench_time_source: str | None = None
     drift_common_hz_per_h: float | None = None
     drift_split_hz_per_h: float | None = None
+    #: Why the run stopped before meeting its goals with iterations to spare (the bench-time
+    #: budget, a drift that outruns the verification), or None.
+    stopped: str | None = None
+    #: The bench-time budget (``[tuning] max_bench_minutes``, seconds).
+    bench_budget_s: float | None = None
 
     @classmethod
     def start(cls, device: str, bias: np.ndarray, space: BiasSpace, out: str) -> RunSummary:
@@ -148,6 +164,24 @@ class RunSummary:
             electrodes=list(space.electrodes),
             tuned=list(space.tuned),
             out=out,
+        )
+
+    def stopped_by(
+        self, why: str, notes: list[str], spent_s: float | None, bench: Bench
+    ) -> RunSummary:
+        """The summary ended early for ``why``.
+
+        With the run's ``notes``, bench time and the counts of its ``bench`` as they are now.
+        """
+        return dataclasses.replace(
+            self,
+            notes=list(notes),
+            stopped=why,
+            status=f"{self.status}; stopped: {why}",
+            bench_time_s=spent_s if spent_s is not None else self.bench_time_s,
+            experiments=bench.measurements,
+            points=bench.points,
+            acquisitions=bench.acquisitions,
         )
 
     @property
@@ -187,7 +221,9 @@ class RunSummary:
             "settle_source": self.settle_source,
             "drift_common_hz_per_h": self.drift_common_hz_per_h,
             "drift_split_hz_per_h": self.drift_split_hz_per_h,
+            "bench_budget_s": self.bench_budget_s,
             "converged": self.converged,
+            "stopped": self.stopped,
             "verified": self.verified,
             "status": self.status,
             "goals": self.goals,
@@ -238,38 +274,30 @@ def summarize(
     goals: list[Goal],
     converged: bool,
     *,
-    measurements: int,
-    points: int,
-    dwell: tuple[float | None, str | None],
+    bench: Bench,
+    rates: tuple[tuple[float | None, str | None], tuple[float | None, str | None]],
     confidence: ConfidenceRegion | None,
-    acquisitions: int | None = None,
-    bias_changes: int = 0,
-    settle: tuple[float | None, str | None] = (None, None),
     notes: list[str],
-    clock_span_s: float | None = None,
-    drift_hz_per_h: float | None = None,
-    drift_split_hz_per_h: float | None = None,
+    drift: tuple[float | None, float | None] = (None, None),
+    budget_s: float | None = None,
 ) -> RunSummary:
     """The run's summary after the last iteration of ``history`` (a new object).
 
-    ``ver`` and ``goals`` are that iteration's verification and goals, ``dwell`` the seconds
-    per acquisition and where they come from (:func:`sysid_core.run.benchtime.dwell`): the
-    bench time is the device clock's span ``clock_span_s`` when every measurement carried time
-    stamps (``bench_time_source = "clock"``), plus what comes before the first stamp (the
-    settling and the first acquisition, ``settle_s + dwell``, as far as they are known), else
-    the estimate ``acquisitions × dwell + bias_changes × settle_s`` (``"estimate"``;
-    ``acquisitions`` defaults to ``points``, and without ``settle_s`` the bias changes are not
-    counted).
+    ``ver`` and ``goals`` are that iteration's verification and goals; ``bench`` counts what
+    was measured; ``rates`` are the dwell per acquisition and the settling, each with where it
+    comes from (:meth:`sysid_core.run.clock.RunClock.rates`): the bench time is the device
+    clock's span when every measurement carried time stamps (``bench_time_source =
+    "clock"``), plus what comes before the first stamp (the settling and the first
+    acquisition, as far as they are known), else the estimate ``acquisitions × dwell +
+    bias_changes × settle_s`` (``"estimate"``; without ``settle_s`` the bias changes are not
+    counted); :func:`sysid_core.run.budget.spent_s`. ``drift``: the common and split drift
+    rates found (Hz per hour); ``budget_s``: the bench-time budget.
     """
     last = history[-1]
-    dwell_s, dwell_source = dwell
-    settle_s, settle_source = settle
-    n_acq = points if acquisitions is None else acquisitions
-    estimate = (
-        None
-        if dwell_s is None
-        else n_acq * dwell_s + (bias_changes * settle_s if settle_s else 0.0)
-    )
+    (dwell_s, dwell_source), (settle_s, settle_source) = rates
+    n_acq, bias_changes, clock_span_s = bench.acquisitions, bench.bias_changes, bench.clock_span_s
+    points, measurements = bench.points, bench.measurements
+    estimate = spent_s(None, n_acq, bias_changes, dwell_s, settle_s)
     return dataclasses.replace(
         before,
         bias=list(last.verified_bias),
@@ -283,11 +311,7 @@ def summarize(
         acquisitions=n_acq,
         settle_s=settle_s,
         settle_source=settle_source,
-        bench_time_s=(
-            estimate
-            if clock_span_s is None
-            else clock_span_s + (settle_s or 0.0) + (dwell_s or 0.0)
-        ),
+        bench_time_s=spent_s(clock_span_s, n_acq, bias_changes, dwell_s, settle_s),
         bench_time_estimate_s=estimate,
         bench_time_source=(
             "clock" if clock_span_s is not None else None if dwell_s is None else "estimate"
@@ -305,9 +329,18 @@ def summarize(
         ),
         history=list(history),
         notes=list(notes),
-        drift_common_hz_per_h=drift_hz_per_h,
-        drift_split_hz_per_h=drift_split_hz_per_h,
+        drift_common_hz_per_h=drift[0],
+        drift_split_hz_per_h=drift[1],
+        bench_budget_s=budget_s,
     )
+
+
+def _interval(ver: Verification) -> list[float] | None:
+    """The 95 % interval of the split ``ver`` measured, or None."""
+    if not ver.verified or ver.split_hz is None:
+        return None
+    found = split_interval(ver.model)
+    return None if found is None else [float(found[0]), float(found[1])]
 
 
 #: The least split a verified window of a run measured (Hz) and its bias, or None.

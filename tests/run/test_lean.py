@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from sysid_cloverleaf import CloverleafGyro
 from sysid_random_gyro import RandomGyro
 
+from sysid_core.device.capabilities import Capabilities, read_capabilities
 from sysid_core.errors import ConfigError, DeviceError, UnreachableTuningError
 from sysid_core.run import lean
 from sysid_core.run.config import ExperimentConfig, parse_config
@@ -203,10 +204,15 @@ class Timed:
 
 def test_the_probe_by_default_only_where_the_device_has_a_clock() -> None:
     assert ExperimentConfig().probe == "auto"
-    assert probe_first("auto", Timed(10.2))
-    for no_clock in (Timed(None), Timed(0.0), Timed(float("nan")), Timed("x"), object()):
-        assert not probe_first("auto", no_clock)
-    assert probe_first(True, object()) and not probe_first(False, Timed(10.2))
+    assert probe_first("auto", read_capabilities(Timed(10.2)))
+    for no_clock in (Timed(None), object()):
+        assert not probe_first("auto", read_capabilities(no_clock))
+    # a dwell a device cannot mean is refused, not taken for "no clock"
+    for bad in (Timed(0.0), Timed(float("nan")), Timed("x")):
+        with pytest.raises(DeviceError, match="'dwell_s' must be"):
+            read_capabilities(bad)
+    caps = read_capabilities(Timed(10.2))
+    assert probe_first(True, Capabilities()) and not probe_first(False, caps)
     with pytest.raises(ConfigError, match=r'probe = \'yes\': must be true, false or "auto"'):
         parse_config({**MAIN_JOB, "experiment": {"probe": "yes"}})
     with pytest.raises(ConfigError, match='must be true, false or "auto"'):

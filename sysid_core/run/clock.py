@@ -1,0 +1,133 @@
+"""The run's bench clock: the seconds its measurements cost, what it has spent, what it may spend.
+
+One object answers every question a run asks of time (:class:`RunClock`):
+
+* the dwell per acquisition and the settling after a bias change, each the device's own
+  (its checked capabilities, :mod:`sysid_core.device.capabilities`), else the configuration's
+  (``[experiment] dwell_s``, ``settle_s``), else estimated from the latest fit's Q
+  (:mod:`sysid_core.run.benchtime`);
+* the bench time spent: the device clock's span when every measurement was time-stamped
+  (the stamps are checked once, :class:`~sysid_core.run.bench.Bench`), else the estimate;
+* the budget (:class:`~sysid_core.run.budget.Budget`): a measurement that would end past it is
+  refused (:class:`~sysid_core.errors.BudgetSpentError`), and the iterations it still affords
+  are what the look-ahead verdicts count.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from sysid_core.device.capabilities import Capabilities
+from sysid_core.errors import BudgetSpentError
+from sysid_core.model.fitted import FittedModel
+from sysid_core.run.bench import Bench
+from sysid_core.run.benchtime import dwell, settle
+from sysid_core.run.budget import Budget, spent_s
+from sysid_core.run.config import ExperimentConfig
+
+__all__ = ["RunClock", "Seconds"]
+
+#: Seconds, and where they come from (``"device"``, ``"config"``, ``"estimated ..."``), or
+#: ``(None, None)`` when nothing says.
+Seconds = tuple[float | None, str | None]
+
+
+@dataclass
+class RunClock:
+    """A run's bench clock (see the module).
+
+    Parameters
+    ----------
+    bench : Bench
+        The run's bench: its counts and its device's time stamps.
+    experiment : ExperimentConfig
+        ``[experiment]``: the configured ``dwell_s`` and ``settle_s``.
+    budget : Budget
+        The bench-time budget.
+    """
+
+    bench: Bench
+    experiment: ExperimentConfig
+    budget: Budget
+    #: The latest fitted model, whose Q estimates what neither device nor configuration states.
+    latest: FittedModel | None = field(default=None)
+
+    @property
+    def caps(self) -> Capabilities:
+        """What the device states of its bench, checked once."""
+        return self.bench.device.capabilities
+
+    def rates(self, model: FittedModel | None = None) -> tuple[Seconds, Seconds]:
+        """The dwell per acquisition and the settling after a bias change, with their sources.
+
+        Estimated from ``model`` (default: the latest fit) where neither the device nor the
+        configuration states them.
+        """
+        model = model or self.latest
+        return (
+            dwell(self.caps, self.experiment.dwell_s, model),
+            settle(self.caps, self.experiment.settle_s, model),
+        )
+
+    def settle_s(self, model: FittedModel | None = None) -> float:
+        """The settling after a bias change (seconds; 0 when nothing says)."""
+        return float(self.rates(model)[1][0] or 0.0)
+
+    def spent_s(self) -> float | None:
+        """The bench time spent so far (seconds; the clock's, else estimated), or None."""
+        (dwell_s, _), (settle_s, _) = self.rates()
+        b = self.bench
+        return spent_s(b.clock_span_s, b.acquisitions, b.bias_changes, dwell_s, settle_s)
+
+    @property
+    def limit_s(self) -> float:
+        """The budget in seconds (the configured one, else the gyro's own: its dwell's)."""
+        return self.budget.limit_s(self.rates()[0][0])
+
+    @property
+    def binding(self) -> bool:
+        """Whether the budget stops the run: its bench time is known, not guessed.
+
+        Known: every measurement so far carried time stamps (a clock), or the dwell per
+        acquisition is stated (the device's ``dwell_s`` or ``[experiment] dwell_s``). A dwell
+        estimated from the fitted Q (``5 Q/ω``) can be off severalfold (the analyzer's
+        bandwidth decides), so a run without a clock or a stated dwell reports its estimated
+        bench time against the budget and plans with it, but is not stopped by it.
+        """
+        b = self.bench
+        clock = b.measurements > 0 and b.clock_span_s is not None
+        return clock or self.rates()[0][1] in ("device", "config")
+
+    def guard(self, n_acquisitions: int, bias_changes: bool) -> None:
+        """Refuse a measurement of ``n_acquisitions`` that would end past a binding budget.
+
+        Raises
+        ------
+        BudgetSpentError
+            Saying what was spent and where the measurement would end.
+        """
+        if not self.binding:
+            return
+        (dwell_s, _), (settle_s, _) = self.rates()
+        cost = None
+        if dwell_s is not None:
+            cost = n_acquisitions * dwell_s + ((settle_s or 0.0) if bias_changes else 0.0)
+        why = self.budget.refuse(self.spent_s(), cost, self.limit_s)
+        if why is not None:
+            raise BudgetSpentError(why)
+
+    def left(self) -> int:
+        """Iterations the run can still start (the budget's, within the cap).
+
+        Where the budget does not bind (:attr:`binding`), its estimated bench time still plans.
+        """
+        return self.budget.left_now(self.spent_s(), self.limit_s)
+
+    def describe(self, spent: float | None) -> str:
+        """What the run spent of its budget, for the progress (estimated where not binding)."""
+        if self.binding or spent is None:
+            return self.budget.describe(spent, self.limit_s)
+        return (
+            f"bench time about {spent / 60:.3g} min, estimated from the fitted Q (the budget of "
+            f"{self.limit_s / 60:.3g} min binds a run on a clock or with a stated dwell)"
+        )
