@@ -1,6 +1,7 @@
 """A tuning run: the configuration, the loop of experiments, fits, answers and verifications.
 
-Lives here: the configuration file (:mod:`.config`), building a run's components
+Lives here: the configuration file (:mod:`.config`; ``[model] drift`` parsed:
+:mod:`.driftpolicy`), building a run's components
 (:mod:`.components`), experiment designs and sweep grids (:mod:`.sweeps`), the lean protocol
 (:mod:`.lean`, :mod:`.knowledge`; from a previous model: :mod:`.previous`), the evidence that
 a sweep shows both modes (:mod:`.evidence`), verification (:mod:`.verification`) and what it

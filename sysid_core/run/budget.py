@@ -27,7 +27,15 @@ import itertools
 import math
 from dataclasses import dataclass, field
 
-__all__ = ["BUDGET_DWELLS", "DEFAULT_MAX_BENCH_MINUTES", "Budget", "default_limit_s", "spent_s"]
+__all__ = [
+    "BUDGET_DWELLS",
+    "CAP_BOUND",
+    "CAP_UNBOUND",
+    "DEFAULT_MAX_BENCH_MINUTES",
+    "Budget",
+    "default_limit_s",
+    "spent_s",
+]
 
 #: The least default budget: an hour of a bench per gyro.
 DEFAULT_MAX_BENCH_MINUTES = 60.0
@@ -37,6 +45,14 @@ DEFAULT_MAX_BENCH_MINUTES = 60.0
 #: verification windows of about 21 points, each after a settling of 1.2 dwells (3 time
 #: constants ``2Q/ω`` against a dwell of ``5 Q/ω``): 180 + 24 × 22.2 ≈ 720.
 BUDGET_DWELLS = 720
+
+
+#: The default cap on iterations where the budget binds (a clock, or a stated dwell): never
+#: reached before the budget (a verification costs at least a few dwells plus a settling).
+CAP_BOUND = 1000
+#: The default cap where the budget does not bind (its bench time only estimated from the Q):
+#: the cap is then what ends a run that does not converge.
+CAP_UNBOUND = 50
 
 
 def default_limit_s(dwell_s: float | None) -> float:
@@ -78,14 +94,21 @@ class Budget:
     ----------
     minutes : float or None
         ``[tuning] max_bench_minutes``; None: :func:`default_limit_s`.
-    cap : int
-        ``[tuning] max_iterations``: the most iterations, whatever the budget.
+    iterations : int or None
+        ``[tuning] max_iterations``: the most iterations, whatever the budget; None:
+        :data:`CAP_BOUND` where the budget binds, else :data:`CAP_UNBOUND` (:meth:`cap`).
     """
 
     minutes: float | None
-    cap: int
+    iterations: int | None = None
     #: The bench time spent at the end of each completed iteration (None: not known).
     ends_s: list[float | None] = field(default_factory=list)
+
+    def cap(self, binding: bool) -> int:
+        """The most iterations: the configured cap, else the default for a ``binding`` budget."""
+        if self.iterations is not None:
+            return self.iterations
+        return CAP_BOUND if binding else CAP_UNBOUND
 
     def limit_s(self, dwell_s: float | None) -> float:
         """The budget in seconds, for a gyro whose dwell per acquisition is ``dwell_s``."""
@@ -106,20 +129,20 @@ class Budget:
         costs = [b - a for a, b in itertools.pairwise(ends)]
         return sum(costs) / len(costs) if costs else ends[0]
 
-    def iterations_left(self, done: int, spent: float | None, limit_s: float) -> int:
-        """Iterations still to come after ``done``: what ``limit_s`` affords, within the cap.
+    def iterations_left(self, done: int, spent: float | None, limit_s: float, cap: int) -> int:
+        """Iterations still to come after ``done``: what ``limit_s`` affords, within ``cap``.
 
         Without a known cost or ``spent``, the cap alone decides.
         """
-        by_cap = max(self.cap - done, 0)
+        by_cap = max(cap - done, 0)
         cost = self.cost_s()
         if spent is None or cost is None or cost <= 0:
             return by_cap
         return min(by_cap, max(math.floor((limit_s - spent) / cost), 0))
 
-    def left_now(self, spent: float | None, limit_s: float) -> int:
+    def left_now(self, spent: float | None, limit_s: float, cap: int) -> int:
         """Iterations the run can still start, with ``spent`` seconds spent now."""
-        return self.iterations_left(len(self.ends_s), spent, limit_s)
+        return self.iterations_left(len(self.ends_s), spent, limit_s, cap)
 
     def refuse(self, spent: float | None, cost: float | None, limit_s: float) -> str | None:
         """Why a measurement costing ``cost`` seconds must not start, ``spent`` being spent.

@@ -121,7 +121,12 @@ class RunClock:
 
         Where the budget does not bind (:attr:`binding`), its estimated bench time still plans.
         """
-        return self.budget.left_now(self.spent_s(), self.limit_s)
+        return self.budget.left_now(self.spent_s(), self.limit_s, self.cap)
+
+    @property
+    def cap(self) -> int:
+        """The most iterations (``[tuning] max_iterations``, else the default for the budget)."""
+        return self.budget.cap(self.binding)
 
     def describe(self, spent: float | None) -> str:
         """What the run spent of its budget, for the progress (estimated where not binding)."""

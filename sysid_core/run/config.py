@@ -39,6 +39,7 @@ from pydantic import BaseModel, ConfigDict, Field, StrictBool, ValidationError, 
 from sysid_core.errors import ConfigError
 from sysid_core.identification.objective import DEFAULT_OBJECTIVE
 from sysid_core.model.structures import DEFAULT_BIAS_TERMS, DEFAULT_ORDER, DEFAULT_STIFFNESS
+from sysid_core.run.driftpolicy import DriftPolicy
 
 __all__ = ["PipelineConfig", "load_config", "parse_config", "read_toml"]
 
@@ -79,6 +80,11 @@ class ModelConfig(_Strict):
     drift: Literal["auto", "none", "common", "offsets", "trend", "track"] = "auto"
     options: dict[str, Any] = Field(default_factory=dict)
 
+    @property
+    def policy(self) -> DriftPolicy:
+        """``drift`` parsed once into what the run does about a drifting gyro."""
+        return DriftPolicy.parse(self.drift)
+
     def structure_options(self, accepted: Sequence[str]) -> dict[str, Any]:
         """Keyword options for a structure's factory taking ``accepted`` keywords.
 
@@ -117,24 +123,20 @@ class SolverConfig(BaseModel):
         return dict(self.model_extra or {})
 
 
-#: The default of ``[tuning] max_iterations``: a cap that does not bind before the bench-time
-#: budget (an iteration that measures only its verification costs a minute or more of a bench).
-DEFAULT_MAX_ITERATIONS = 50
-
-
 class TuningConfig(_Strict):
     """``[tuning]``.
 
     ``max_bench_minutes`` bounds the run by the bench clock (the device's time stamps, else the
     estimated bench time): no measurement starts that would end past it; unset, it is the
     larger of an hour and 720 dwells of the gyro (:mod:`sysid_core.run.budget`).
-    ``max_iterations`` (default 50) only caps the iterations; no verdict depends on it.
+    ``max_iterations`` only caps the iterations (unset: 1000 where the budget binds, 50 where
+    it does not); no verdict depends on it.
     """
 
     criterion: str = "degenerate"
     start_bias: list[float] | None = None
     acceptance_hz: float = Field(0.01, gt=0)
-    max_iterations: int = Field(DEFAULT_MAX_ITERATIONS, ge=1, le=1000)
+    max_iterations: int | None = Field(None, ge=1, le=10_000)
     max_bench_minutes: float | None = Field(None, gt=0)
     aim: float | None = Field(None, gt=0, le=1)
     target_hz: float | None = Field(None, gt=0)

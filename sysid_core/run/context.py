@@ -9,6 +9,7 @@ import numpy as np
 
 from sysid_core.data.validation import check_rank_condition
 from sysid_core.run.bench import Bench
+from sysid_core.run.budget import CAP_UNBOUND
 from sysid_core.run.config import PipelineConfig
 from sysid_core.run.fitter import Fitter
 from sysid_core.run.sweeps import SweepPlan, design_experiments
@@ -40,7 +41,9 @@ class RunContext:
 
         What the verdicts that look ahead count (:func:`sysid_core.run.contraction.too_slow`).
         """
-        return self.afford() if self.afford is not None else self.config.tuning.max_iterations
+        if self.afford is not None:
+            return self.afford()
+        return self.config.tuning.max_iterations or CAP_UNBOUND
 
     def step(self, it: int) -> float:
         """The bias step of iteration ``it`` (volts)."""

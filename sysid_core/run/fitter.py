@@ -31,6 +31,7 @@ from sysid_core.identification.objective import Objective
 from sysid_core.identification.reweighting import refit
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.structures import ModelStructure
+from sysid_core.run.driftpolicy import DriftPolicy
 from sysid_core.run.evidence import WindowAssessment, assess_window
 
 __all__ = ["TREND_SPAN_S", "Fitter"]
@@ -67,22 +68,23 @@ class Fitter:
     @classmethod
     def of(
         cls,
-        drift: str,
+        drift: DriftPolicy | str,
         structure: ModelStructure,
         objective: Objective,
         solver: Solver,
         twin_structure: ModelStructure | None = None,
     ) -> Fitter:
-        """The fitter of a run whose ``[model] drift`` is ``drift``."""
+        """The fitter of a run whose ``[model] drift`` is ``drift`` (parsed, or its value)."""
+        policy = drift if isinstance(drift, DriftPolicy) else DriftPolicy.parse(drift)
         return cls(
             structure,
             objective,
             solver,
-            drift=drift == "common",
-            offsets="offsets" in drift,
-            trend="trend" in drift,
+            drift=policy.common,
+            offsets=policy.offsets,
+            trend=policy.trend,
             twin_structure=twin_structure,
-            tracked=drift in ("track", "auto"),
+            tracked=policy.may_track,
         )
 
     def _epochs(self, ds: xr.Dataset) -> int:

@@ -30,6 +30,7 @@ the loop is replayed and every measurement on disk is read instead of measured a
 
 from __future__ import annotations
 
+import itertools
 import time
 from pathlib import Path
 
@@ -158,10 +159,10 @@ class TuningRun:
             Budget(config.tuning.max_bench_minutes, config.tuning.max_iterations),
         )
         self.fitter = Fitter.of(
-            config.model.drift, self.structure, self.objective, self.solver, parts.twin
+            config.model.policy, self.structure, self.objective, self.solver, parts.twin
         )
         #: The verified windows and the model moved ahead (``drift = "track"`` or ``"auto"``).
-        self.tracker = Tracker.of(config.model.drift, config.tuning.acceptance_hz)
+        self.tracker = Tracker.of(config.model.policy, config.tuning.acceptance_hz)
         plan = SweepPlan.from_config(config.experiment, dev.band_hz, tones=acquisition_tones)
         context = RunContext(
             config,
@@ -220,7 +221,9 @@ class TuningRun:
         history: list[IterationRecord] = []
         path, regions, split = [bias.tolist()], [], 0.0
         center: float | None = None
-        for it in range(1, cfg.max_iterations + 1):
+        for it in itertools.count(1):
+            if it > self.clock.cap:  # [tuning] max_iterations, or its default
+                break
             folder = self.out / f"iter{it:02d}"
             try:
                 t0 = time.perf_counter()
@@ -310,9 +313,8 @@ class TuningRun:
     @property
     def tracking(self) -> bool:
         """``drift = "track"``, or ``"auto"`` once every measurement carried time stamps."""
-        return self.tracker is not None and (
-            self.config.model.drift == "track" or self.bench.clock_span_s is not None
-        )
+        clock = self.bench.clock_span_s is not None
+        return self.tracker is not None and self.config.model.policy.tracking(clock)
 
     def _track(self, it: int, model: FittedModel, ds: xr.Dataset) -> FittedModel:
         """The model moved to the next verification's time (:attr:`tracking`)."""

@@ -35,6 +35,7 @@ from sysid_core.data.schema import requested_bias
 from sysid_core.identification.anchor import anchor
 from sysid_core.identification.drift import OffsetDrift, offset_drift
 from sysid_core.model.fitted import FittedModel
+from sysid_core.run.driftpolicy import DriftPolicy
 from sysid_core.run.evidence import WindowAssessment
 from sysid_core.run.own_splits import (
     LINE_SIGNIFICANCE,
@@ -99,14 +100,14 @@ class Tracker:
     rates: OffsetDrift | None = None
 
     @classmethod
-    def of(cls, drift: str, acceptance_hz: float) -> Tracker | None:
+    def of(cls, drift: DriftPolicy, acceptance_hz: float) -> Tracker | None:
         """The tracker of a run whose ``[model] drift`` is ``drift``, or None.
 
         ``"track"`` and ``"auto"`` (which tracks only on a bench with a clock, the run's
         choice) keep one; earlier windows anchor it when under :data:`NEAR_ACCEPTANCES`
         acceptances.
         """
-        if drift not in ("track", "auto"):
+        if not drift.may_track:
             return None
         return cls(near_hz=NEAR_ACCEPTANCES * acceptance_hz)
 

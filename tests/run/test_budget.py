@@ -21,7 +21,7 @@ from sysid_core import tune
 from sysid_core.cli import main
 from sysid_core.device.capabilities import Capabilities, read_capabilities
 from sysid_core.errors import BudgetSpentError, DeviceError, InvalidAnswerError
-from sysid_core.run.budget import BUDGET_DWELLS, Budget, spent_s
+from sysid_core.run.budget import BUDGET_DWELLS, CAP_BOUND, CAP_UNBOUND, Budget, spent_s
 from sysid_core.run.config import parse_config
 from sysid_core.run.locating import probe_first
 from sysid_core.run.pipeline import TuningRun
@@ -53,22 +53,29 @@ HOUR = 3600.0
 
 
 def test_the_budget_counts_iterations_by_their_cost_not_by_the_cap() -> None:
-    budget = Budget(minutes=60.0, cap=50)
-    assert budget.cost_s() is None and budget.iterations_left(0, None, HOUR) == 50
+    budget, cap = Budget(minutes=60.0), 50
+    assert budget.cost_s() is None and budget.iterations_left(0, None, HOUR, cap) == 50
     budget.ended(1200.0)  # a first iteration: locating, design, verification
-    assert budget.cost_s() == 1200.0 and budget.iterations_left(1, 1200.0, HOUR) == 2
+    assert budget.cost_s() == 1200.0 and budget.iterations_left(1, 1200.0, HOUR, cap) == 2
     budget.ended(1500.0)  # then verifications of 300 s
     budget.ended(1800.0)
     assert budget.cost_s() == pytest.approx(300.0)
-    assert budget.iterations_left(3, 1800.0, HOUR) == 6 and budget.left_now(1800.0, HOUR) == 6
+    assert budget.iterations_left(3, 1800.0, HOUR, cap) == 6
+    assert budget.left_now(1800.0, HOUR, cap) == 6
     # the cap still caps
-    assert Budget(60.0, cap=4, ends_s=[1200.0, 1500.0, 1800.0]).left_now(1800.0, HOUR) == 1
+    assert Budget(60.0, ends_s=[1200.0, 1500.0, 1800.0]).left_now(1800.0, HOUR, cap=4) == 1
     # an iteration of unknown bench time: the cap alone decides
-    assert Budget(60.0, cap=9, ends_s=[None]).left_now(None, HOUR) == 8
+    assert Budget(60.0, ends_s=[None]).left_now(None, HOUR, cap=9) == 8
+
+
+def test_the_cap_is_the_configured_one_else_the_budgets_default() -> None:
+    assert Budget(None, iterations=7).cap(binding=True) == 7
+    assert Budget(None).cap(binding=True) == CAP_BOUND  # the budget ends the run
+    assert Budget(None).cap(binding=False) == CAP_UNBOUND  # only estimated: the cap does
 
 
 def test_the_default_budget_is_an_hour_or_the_gyros_own_time() -> None:
-    unset, set_ = Budget(minutes=None, cap=50), Budget(minutes=25.0, cap=50)
+    unset, set_ = Budget(minutes=None), Budget(minutes=25.0)
     assert unset.limit_s(None) == HOUR and unset.limit_s(2.0) == HOUR  # a fast gyro
     # a slow one: 720 dwells of 40 s (5 Q/ω of a 2 kHz mode with Q = 100 000) are 8 hours
     assert unset.limit_s(40.0) == pytest.approx(BUDGET_DWELLS * 40.0) == 8 * HOUR
@@ -76,7 +83,7 @@ def test_the_default_budget_is_an_hour_or_the_gyros_own_time() -> None:
 
 
 def test_a_measurement_that_would_end_past_the_budget_is_refused() -> None:
-    budget, limit = Budget(minutes=10.0, cap=50), 600.0
+    budget, limit = Budget(minutes=10.0), 600.0
     assert budget.refuse(None, 1e9, limit) is None  # nothing tells what was spent
     assert budget.refuse(500.0, 100.0, limit) is None
     why = budget.refuse(500.0, 100.5, limit)
