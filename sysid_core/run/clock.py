@@ -17,6 +17,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
+import xarray as xr
+
 from sysid_core.device.capabilities import Capabilities
 from sysid_core.errors import BudgetSpentError
 from sysid_core.model.fitted import FittedModel
@@ -25,7 +28,28 @@ from sysid_core.run.benchtime import dwell, settle
 from sysid_core.run.budget import Budget, spent_s
 from sysid_core.run.config import ExperimentConfig
 
-__all__ = ["RunClock", "Seconds"]
+__all__ = ["RunClock", "Seconds", "stamps", "stamps_span_s"]
+
+
+def stamps(ds: xr.Dataset) -> np.ndarray:
+    """A sweep's (or data set's) finite time stamps (seconds, the bench clock), flat.
+
+    Empty without ``time_s``; NaN marks a point of unknown time (a frequency a sweep of a data
+    set did not measure) and is left out. The one reader of time stamps in a run: each stamp a
+    device gives is checked finite, and each measurement's first stamp no earlier than the last
+    one's before it (:class:`~sysid_core.run.bench.Bench`).
+    """
+    if "time_s" not in ds:
+        return np.array([])
+    t = np.asarray(ds["time_s"].values, dtype=float).ravel()
+    return t[np.isfinite(t)]
+
+
+def stamps_span_s(ds: xr.Dataset) -> float | None:
+    """The span of ``ds``'s time stamps (seconds), or None without any."""
+    t = stamps(ds)
+    return float(np.ptp(t)) if t.size else None
+
 
 #: Seconds, and where they come from (``"device"``, ``"config"``, ``"estimated ..."``), or
 #: ``(None, None)`` when nothing says.

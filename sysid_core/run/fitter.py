@@ -31,6 +31,7 @@ from sysid_core.identification.objective import Objective
 from sysid_core.identification.reweighting import refit
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.structures import ModelStructure
+from sysid_core.run.clock import stamps_span_s
 from sysid_core.run.driftpolicy import DriftPolicy
 from sysid_core.run.evidence import WindowAssessment, assess_window
 
@@ -102,8 +103,7 @@ class Fitter:
             return True
         if not (self.tracked and has_time_stamps(ds)):
             return False
-        times = np.asarray(ds["time_s"].values, dtype=float)
-        return float(np.nanmax(times) - np.nanmin(times)) > TREND_SPAN_S
+        return (stamps_span_s(ds) or 0.0) > TREND_SPAN_S
 
     def fit(
         self, ds: xr.Dataset, structure: ModelStructure | None = None

@@ -39,10 +39,9 @@ structures are fitted plainly (not refitted with weights) so that their residual
 
 from __future__ import annotations
 
-import numpy as np
-
 from sysid_core.identification.drift import offset_drift
 from sysid_core.model.fitted import FittedModel
+from sysid_core.run.clock import stamps_span_s
 from sysid_core.run.fitter import Fitter
 from sysid_core.run.verification import Verification
 from sysid_core.tuning.confidence import split_interval
@@ -87,11 +86,7 @@ def split_rate_hz_per_s(model: FittedModel) -> float | None:
 
 def sweep_half_s(ver: Verification) -> float:
     """Half the time the verification's last sweep took (its middle to its end), or 0."""
-    if "time_s" not in ver.sweep:
-        return 0.0
-    t = np.asarray(ver.sweep["time_s"].values, dtype=float)
-    t = t[np.isfinite(t)]
-    return 0.5 * float(np.ptp(t)) if t.size else 0.0
+    return 0.5 * (stamps_span_s(ver.sweep) or 0.0)
 
 
 def holds_s(split_hz: float, acceptance_hz: float, rate_hz_per_s: float | None) -> float | None:

@@ -21,6 +21,7 @@ import xarray as xr
 from sysid_core.identification.anchor import Anchor, anchor, split_offset
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import mass_roots
+from sysid_core.run.clock import stamps
 from sysid_core.tuning.confidence import split_interval
 
 __all__ = [
@@ -30,19 +31,10 @@ __all__ = [
     "POOL_RATE_RIDGE_MIN2",
     "SPLIT_SIGNIFICANCE",
     "split_variance",
-    "stamps",
     "windows_line",
     "windows_pooled",
     "windows_split",
 ]
-
-
-def stamps(ds: xr.Dataset) -> np.ndarray:
-    """A sweep's finite time stamps (seconds, the bench clock); empty without ``time_s``."""
-    if "time_s" not in ds:
-        return np.array([])
-    t = np.asarray(ds["time_s"].values, dtype=float).ravel()
-    return t[np.isfinite(t)]
 
 
 def split_variance(own: FittedModel) -> float:

@@ -28,6 +28,7 @@ from sysid_core.errors import DataError
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.bench import Bench
 from sysid_core.run.benchtime import dwell
+from sysid_core.run.clock import stamps_span_s
 from sysid_core.run.config import PipelineConfig
 from sysid_core.run.evidence import WindowAssessment
 from sysid_core.run.fitter import Fitter
@@ -63,13 +64,8 @@ def target_reach_hz(split_hz: float, acceptance_hz: float) -> float:
 
 def pass_duration_s(sweep: xr.Dataset, dwell_s: float | None) -> float | None:
     """One pass's bench time: its time stamps' span plus one acquisition, or None if untimed."""
-    if "time_s" not in sweep:
-        return None
-    t = np.asarray(sweep["time_s"].values, dtype=float).ravel()
-    t = t[np.isfinite(t)]
-    if not t.size:
-        return None
-    return float(np.ptp(t)) + float(dwell_s or 0.0)
+    span = stamps_span_s(sweep)
+    return None if span is None else span + float(dwell_s or 0.0)
 
 
 def passes_needed(

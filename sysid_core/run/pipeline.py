@@ -179,9 +179,8 @@ class TuningRun:
         self.protocol = make_protocol(context, from_model)
         folder.check(resume)
         self.notes: list[str] = []
-        #: The common drift the fits found (Hz per hour), or None when not modelled.
+        #: The common drift the fits found and the split's the tracking found (Hz per hour).
         self.drift_hz_per_h: float | None = None
-        #: The split's drift rate the tracking found (Hz per hour), or None.
         self.drift_split_hz_per_h: float | None = None
 
     @property
@@ -221,9 +220,8 @@ class TuningRun:
         history: list[IterationRecord] = []
         path, regions, split = [bias.tolist()], [], 0.0
         center: float | None = None
-        for it in itertools.count(1):
-            if it > self.clock.cap:  # [tuning] max_iterations, or its default
-                break
+        # up to [tuning] max_iterations, or its default (which may change once the clock shows)
+        for it in itertools.takewhile(lambda k: k <= self.clock.cap, itertools.count(1)):
             folder = self.out / f"iter{it:02d}"
             try:
                 t0 = time.perf_counter()

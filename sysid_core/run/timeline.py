@@ -40,7 +40,7 @@ def timeline_figure(
 
     fig = Figure(figsize=(8.0, 4.2), layout="constrained")
     ax = fig.subplots()
-    floor = 1e-3 * (acceptance_hz or 1e-3) * 1e3  # mHz: a split of 0 sits here
+    floor = 1e-2 * (acceptance_hz or 1e-3) * 1e3  # mHz: a split of 0 sits here
     shown = [h for h in history if h.bench_time_s is not None]
     for k, h in enumerate(shown):
         t = float(h.bench_time_s or 0.0) / 60.0

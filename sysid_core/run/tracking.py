@@ -35,6 +35,7 @@ from sysid_core.data.schema import requested_bias
 from sysid_core.identification.anchor import anchor
 from sysid_core.identification.drift import OffsetDrift, offset_drift
 from sysid_core.model.fitted import FittedModel
+from sysid_core.run.clock import stamps
 from sysid_core.run.driftpolicy import DriftPolicy
 from sysid_core.run.evidence import WindowAssessment
 from sysid_core.run.own_splits import (
@@ -42,7 +43,6 @@ from sysid_core.run.own_splits import (
     LINE_WINDOWS,
     POOL_HORIZON_S,
     SPLIT_SIGNIFICANCE,
-    stamps,
     windows_line,
     windows_pooled,
     windows_split,

@@ -168,6 +168,24 @@ def test_raising_the_cap_changes_no_verdict(tmp_path: Path) -> None:
     assert ends[0][1] < 6  # it ended before either cap
 
 
+def test_a_run_on_a_clock_draws_its_split_over_the_bench_clock(tmp_path: Path) -> None:
+    result = tune(with_tuning(max_iterations=2), tmp_path / "clock", device=clocked())
+    times = [h.bench_time_s for h in result.history]
+    assert all(t is not None for t in times) and times == sorted(times)
+    assert times[-1] == pytest.approx(result.bench_time_s)
+    verified = [h for h in result.history if h.verification == "verified"]
+    assert verified and all(
+        h.measured_split_ci_hz is not None
+        and h.measured_split_ci_hz[0] <= h.measured_split_hz <= h.measured_split_ci_hz[1]
+        for h in verified
+    )
+    assert (tmp_path / "clock" / "drift.png").stat().st_size > 10_000
+    # without a clock there is no bench clock to draw the split over
+    tune(with_tuning(max_iterations=1), tmp_path / "frozen", device=CloverleafGyro(seed=3))
+    assert not (tmp_path / "frozen" / "drift.png").exists()
+    assert (tmp_path / "frozen" / "bias_path.png").exists()
+
+
 # ---------------------------------------------------------------- capabilities, once
 class Stating:
     """A cloverleaf that states a capability of its own."""
