@@ -52,16 +52,13 @@ __all__ = [
     "DRIFT_GOAL",
     "RESOLVE_FACTOR",
     "TWIN_FACTOR",
-    "UNRESOLVED_WINDOWS",
     "aim_fraction",
     "holds_s",
     "honest_goals",
-    "interval_of",
     "outpaced",
     "split_rate_hz_per_s",
     "sweep_half_s",
     "twin_goal",
-    "unresolved",
     "verdict",
 ]
 
@@ -70,9 +67,6 @@ DRIFT_GOAL = "split at the end (drift)"
 
 #: A verified split counts only when its 95 % upper bound is under this many acceptances.
 RESOLVE_FACTOR = 2.0
-#: How many windows in a row that could not show a converged split stop a run
-#: (:func:`unresolved`): the fewest whose verdict one noisy window does not decide alone.
-UNRESOLVED_WINDOWS = 3
 #: A run that tracks the drift stops at a verified split under this fraction of the acceptance.
 DRIFTING_AIM = 0.5
 #: The twin structure fits a window this many times better (residual sum of squares): the
@@ -163,48 +157,6 @@ def outpaced(
     )
 
 
-def interval_of(ver: Verification) -> list[float] | None:
-    """The 95 % interval of the split ``ver`` measured, or None."""
-    if not ver.verified or ver.split_hz is None:
-        return None
-    found = split_interval(ver.model)
-    return None if found is None else [float(found[0]), float(found[1])]
-
-
-#: A measured split and its 95 % interval (Hz), or None where the window gave none.
-Measured = tuple[float | None, list[float] | None]
-
-
-def unresolved(windows: list[Measured], acceptance_hz: float) -> str | None:
-    """Why no verification on this bench can show a converged split, or None.
-
-    ``windows``: the run's verified windows in order (split, 95 % interval). A window whose
-    interval reaches down to the acceptance is consistent with a converged split; if it reaches
-    more than :data:`RESOLVE_FACTOR` acceptances above the split it measured, it could not
-    have shown one even had the split been zero (its upper bound would fail the goal ``split
-    95 % upper bound``). When the last :data:`UNRESOLVED_WINDOWS` such windows all could
-    not, the window's noise at this bench hides the acceptance and the run stops, not
-    converged, instead of spending its budget on answers it cannot verify.
-    """
-    near = [
-        (split, ci)
-        for split, ci in windows
-        if split is not None and ci is not None and ci[0] <= acceptance_hz
-    ][-UNRESOLVED_WINDOWS:]
-    if len(near) < UNRESOLVED_WINDOWS:
-        return None
-    reach = [ci[1] - split for split, ci in near]
-    if min(reach) <= RESOLVE_FACTOR * acceptance_hz:
-        return None
-    return (
-        f"the last {len(near)} verified windows could not show a converged split: their 95 % "
-        f"intervals reach {min(reach) * 1e3:.3g}-{max(reach) * 1e3:.3g} mHz above the split "
-        f"they measured, more than twice the acceptance {acceptance_hz * 1e3:.3g} mHz, so the "
-        "run stops at this bias (average passes of a window, [experiment] max_passes, or "
-        "accept a wider split)"
-    )
-
-
 def verdict(
     ver: Verification,
     model: FittedModel,
@@ -212,14 +164,11 @@ def verdict(
     fitter: Fitter,
     acceptance_hz: float,
     aim: float = 1.0,
-    windows: list[Measured] | None = None,
 ) -> tuple[list[Goal], bool, str | None]:
     """A verification's goals, whether the run converged, and why it stops unconverged (or None).
 
     The criterion's goals and :func:`honest_goals` for ``model``, the iteration's; if they are
-    all met, the :func:`twin_goal` too; if only the drift's is not, :func:`outpaced`; else, if
-    the run's earlier verified ``windows`` and this one cannot show a converged split,
-    :func:`unresolved`.
+    all met, the :func:`twin_goal` too; if only the drift's is not, :func:`outpaced`.
     """
     if not ver.verified or ver.frequencies_hz is None or ver.split_hz is None:
         return [], False, None
@@ -230,8 +179,6 @@ def verdict(
         goals.append(twin)
         converged = twin.met
     stop = None if converged else outpaced(goals, ver.split_hz, acceptance_hz, sweep_half_s(ver))
-    if not converged and stop is None:
-        stop = unresolved([*(windows or []), (ver.split_hz, interval_of(ver))], acceptance_hz)
     return goals, converged, stop
 
 

@@ -220,6 +220,7 @@ class TuningRun:
         history: list[IterationRecord] = []
         path, regions, split = [bias.tolist()], [], 0.0
         center: float | None = None
+        # up to [tuning] max_iterations, or its default (which may change once the clock shows)
         for it in itertools.takewhile(lambda k: k <= self.clock.cap, itertools.count(1)):
             folder = self.out / f"iter{it:02d}"
             try:
@@ -238,9 +239,8 @@ class TuningRun:
             ver.model.save(folder / "verify-model.nc")
             if self.tracking and self.tracker is not None:
                 self.tracker.learned(ver)
-            seen = [(h.measured_split_hz, h.measured_split_ci_hz) for h in history]
             goals, converged, stop = verdict(
-                ver, now, self.criterion, self.fitter, cfg.acceptance_hz, aim, seen
+                ver, now, self.criterion, self.fitter, cfg.acceptance_hz, aim
             )
             if stop is not None:
                 self.notes.append(f"iteration {it}: {stop}")

@@ -18,8 +18,8 @@ from sysid_core.model.fitted import FittedModel
 from sysid_core.run.answer import dac_floor
 from sysid_core.run.bench import Bench
 from sysid_core.run.budget import spent_s
-from sysid_core.run.judgement import interval_of
 from sysid_core.run.verification import Verification
+from sysid_core.tuning.confidence import split_interval
 from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion, Goal, TuningResult
 
 __all__ = [
@@ -91,7 +91,7 @@ class IterationRecord:
             evidence=[w.as_dict() for w in ver.windows],
             gamma=model.gamma,
             fit_time_s=float(model.meta["fit_time_s"]),
-            measured_split_ci_hz=interval_of(ver),
+            measured_split_ci_hz=_interval(ver),
         )
 
     def as_dict(self) -> dict[str, Any]:
@@ -333,6 +333,14 @@ def summarize(
         drift_split_hz_per_h=drift[1],
         bench_budget_s=budget_s,
     )
+
+
+def _interval(ver: Verification) -> list[float] | None:
+    """The 95 % interval of the split ``ver`` measured, or None."""
+    if not ver.verified or ver.split_hz is None:
+        return None
+    found = split_interval(ver.model)
+    return None if found is None else [float(found[0]), float(found[1])]
 
 
 #: The least split a verified window of a run measured (Hz) and its bias, or None.
