@@ -149,8 +149,8 @@ class RunClock:
 
     @property
     def cap(self) -> int:
-        """The most iterations (``[tuning] max_iterations``, else the default for the budget)."""
-        return self.budget.cap(self.binding)
+        """The most iterations (``[tuning] max_iterations``, else its default)."""
+        return self.budget.cap
 
     def describe(self, spent: float | None) -> str:
         """What the run spent of its budget, for the progress (estimated where not binding)."""

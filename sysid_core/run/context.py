@@ -9,7 +9,7 @@ import numpy as np
 
 from sysid_core.data.validation import check_rank_condition
 from sysid_core.run.bench import Bench
-from sysid_core.run.budget import CAP_UNBOUND
+from sysid_core.run.budget import DEFAULT_MAX_ITERATIONS
 from sysid_core.run.config import PipelineConfig
 from sysid_core.run.fitter import Fitter
 from sysid_core.run.sweeps import SweepPlan, design_experiments
@@ -43,7 +43,7 @@ class RunContext:
         """
         if self.afford is not None:
             return self.afford()
-        return self.config.tuning.max_iterations or CAP_UNBOUND
+        return self.config.tuning.max_iterations or DEFAULT_MAX_ITERATIONS
 
     def step(self, it: int) -> float:
         """The bias step of iteration ``it`` (volts)."""

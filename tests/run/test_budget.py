@@ -21,7 +21,7 @@ from sysid_core import tune
 from sysid_core.cli import main
 from sysid_core.device.capabilities import Capabilities, read_capabilities
 from sysid_core.errors import BudgetSpentError, DeviceError, InvalidAnswerError
-from sysid_core.run.budget import BUDGET_DWELLS, CAP_BOUND, CAP_UNBOUND, Budget, spent_s
+from sysid_core.run.budget import BUDGET_DWELLS, DEFAULT_MAX_ITERATIONS, Budget, spent_s
 from sysid_core.run.config import parse_config
 from sysid_core.run.locating import probe_first
 from sysid_core.run.pipeline import TuningRun
@@ -68,10 +68,9 @@ def test_the_budget_counts_iterations_by_their_cost_not_by_the_cap() -> None:
     assert Budget(60.0, ends_s=[None]).left_now(None, HOUR, cap=9) == 8
 
 
-def test_the_cap_is_the_configured_one_else_the_budgets_default() -> None:
-    assert Budget(None, iterations=7).cap(binding=True) == 7
-    assert Budget(None).cap(binding=True) == CAP_BOUND  # the budget ends the run
-    assert Budget(None).cap(binding=False) == CAP_UNBOUND  # only estimated: the cap does
+def test_the_cap_is_the_configured_one_else_its_default() -> None:
+    assert Budget(None, iterations=7).cap == 7
+    assert Budget(None).cap == DEFAULT_MAX_ITERATIONS == 24
 
 
 def test_the_default_budget_is_an_hour_or_the_gyros_own_time() -> None:
