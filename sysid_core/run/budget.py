@@ -47,10 +47,10 @@ BUDGET_DWELLS = 720
 
 
 #: The default cap on iterations. Measured in the uncontrolled lab (docs/studies/
-#: bench-budget.md, random gyros, fresh draws): a cap of 24 ends 95 of 96 runs within 2 mHz; with
-#: a cap the budget never reaches on a fast gyro, its runs go on for the whole hour, and the
-#: tracked answers of the fast gyros whose windows cannot resolve the acceptance drift away
-#: (4 of 72 more runs over 2 mHz). 3 (the paper's) ends 51 of 96 within 2 mHz.
+#: bench-budget.md, 96 random gyros on draws never developed on): with the budget, a cap of 24
+#: ends 94 of 96 runs within 2 mHz; without a cap that binds before the budget, the runs of fast
+#: gyros whose windows cannot resolve the acceptance go on for the whole hour and their tracked
+#: answers drift away (68 of 72 against 72); 3, the paper's, ends 51 of 96.
 DEFAULT_MAX_ITERATIONS = 24
 
 
