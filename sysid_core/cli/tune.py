@@ -38,6 +38,8 @@ def tune_cmd(
     Exits 0 only when the run converged (a verified split under the acceptance and every goal
     of the criterion met); 1 when it did not, with every result saved in --out.
     """
+    from rich.markup import escape
+
     from sysid_core.api import load_model
     from sysid_core.errors import NotConvergedError
     from sysid_core.run.config import load_config
@@ -51,9 +53,11 @@ def tune_cmd(
     with err.status("starting ...") as status:
 
         def progress(message: str) -> None:
-            status.update(message)
+            # a message is text, not markup: "[tuning] max_bench_minutes" must print as such
+            status.update(escape(message))
             if not as_json:
-                err.print(f"[dim]{time.strftime('%H:%M:%S')}[/dim] {message}", highlight=False)
+                stamp = time.strftime("%H:%M:%S")
+                err.print(f"[dim]{stamp}[/dim] {escape(message)}", highlight=False)
 
         run = TuningRun(
             cfg,
@@ -74,7 +78,7 @@ def tune_cmd(
     if as_json:
         print(json.dumps({k: v for k, v in summary.as_dict().items() if k != "history"}))
     else:
-        out.print(f"{summary.device}: {summary.status}", highlight=False)
+        out.print(f"{escape(summary.device)}: {escape(summary.status)}", highlight=False)
         out.print(
             "final bias: "
             + ", ".join(

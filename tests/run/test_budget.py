@@ -134,6 +134,35 @@ def test_a_run_stops_at_its_budget_with_its_last_verified_answer(tmp_path: Path)
     assert any("stopped: the bench-time budget" in line for line in lines)
 
 
+def test_the_command_line_says_where_the_budget_stopped_the_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    first = tune(
+        with_tuning(acceptance_hz=1e-7, max_iterations=1),
+        tmp_path / "one",
+        plots=False,
+        device=clocked(),
+    )
+    assert first.bench_time_s is not None
+    config = tmp_path / "c.toml"
+    config.write_text(
+        '[device]\nname = "cloverleaf"\nseed = 3\n[device.bench]\nclock = true\nseed = 3\n'
+        "tones = 8\ntemperature_ramp_k_per_h = 0.2\ntemperature_walk_k_per_sqrt_h = 0.05\n"
+        '[tuning]\ncriterion = "degenerate"\nelectrodes = ["B1", "B2"]\n'
+        "start_bias = [-4.0, 3.0, 0.0]\nacceptance_hz = 1e-7\n"
+        f"max_bench_minutes = {(first.bench_time_s + 60.0) / 60.0}\n"
+    )
+    code = main(["tune", str(config), "--out", str(tmp_path / "cli"), "--no-plots"])
+    captured = capsys.readouterr()
+    assert code == 1
+    # the progress prints the key as written (it is text, not console markup)
+    lines = captured.err.splitlines()
+    stop = [line for line in lines if ": stopped: the bench-time" in line]
+    assert len(stop) == 1 and "([tuning] max_bench_minutes) is spent" in stop[0], stop
+    assert "stopped: the bench-time budget of" in captured.out
+    assert lines[-1].startswith("sysid: error: NOT converged") and "budget" in lines[-1]
+
+
 def test_a_budget_spent_before_any_answer_is_an_error_in_one_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
