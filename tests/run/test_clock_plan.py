@@ -164,6 +164,36 @@ def test_a_model_that_does_not_help_falls_back_to_the_design(tmp_path: Path) -> 
     assert len(gyro.sweeps) > 1 + result.iterations  # the local design was measured
 
 
+class Unsettled(Counting):
+    """A clocked gyro that does not state its settling (``settle_s = None``)."""
+
+    settle_s = None
+
+
+def test_from_a_previous_model_the_settling_is_the_devices_else_the_configurations(
+    tmp_path: Path,
+) -> None:
+    """The anchored model is moved ahead by the settling after the bias change: the device's
+    when it states one, else ``[experiment] settle_s`` (a run from a model has no Q of its own
+    to estimate one from), else nothing."""
+    first = tune(CONFIG, tmp_path / "first", plots=False, device=bench_gyro(3))
+    model = tmp_path / "first" / f"iter{first.iterations:02d}" / "model.nc"
+    one = {**CONFIG, "tuning": {**CONFIG["tuning"], "max_iterations": 1}}
+    ahead = {}
+    for name, device, experiment in [
+        ("device", Counting(bench_gyro(4)), {"settle_s": 123.0}),
+        ("config", Unsettled(bench_gyro(4)), {"settle_s": 123.0}),
+        ("none", Unsettled(bench_gyro(4)), {}),
+    ]:
+        config = {**one, "experiment": experiment}
+        tune(config, tmp_path / name, plots=False, device=device, from_model=model)
+        ahead[name] = load_model(tmp_path / name / "iter01" / "model.nc").meta[
+            "drift_anchor_ahead_s"
+        ]
+    assert ahead["device"] == pytest.approx(bench_gyro(4).settle_s)
+    assert ahead["config"] == pytest.approx(123.0) and ahead["none"] == 0.0
+
+
 def test_the_cli_takes_a_model_and_refuses_one_of_other_electrodes(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
