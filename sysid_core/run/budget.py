@@ -38,12 +38,13 @@ __all__ = [
 
 #: The least default budget: an hour of a bench per gyro.
 DEFAULT_MAX_BENCH_MINUTES = 60.0
-#: The default budget in the gyro's own time, dwells per acquisition: what a tracked run on a
-#: drifting bench measures with one tone, a first identification (a 61-point locating sweep and
-#: a two-sided design of five sweeps of about 24 points: about 180 acquisitions) and 24 more
-#: verification windows of about 21 points, each after a settling of 1.2 dwells (3 time
-#: constants ``2Q/ω`` against a dwell of ``5 Q/ω``): 180 + 24 × 22.2 ≈ 720.
-BUDGET_DWELLS = 720
+#: The default budget in the gyro's own time, dwells per acquisition. Measured in the
+#: uncontrolled lab (docs/studies/bench-budget.md, 120 random gyros, one tone, 24 iterations
+#: without a budget): the runs that converged took up to 909 dwells (a slow gyro whose law
+#: needed a local design at most iterations, about 100 dwells each, where a verification alone
+#: takes about 22); 1200 leaves a third more. 720, a first identification and 24 windows
+#: alone, stopped that gyro at 935 mHz.
+BUDGET_DWELLS = 1200
 
 
 #: The default cap on iterations. Measured in the uncontrolled lab (docs/studies/
