@@ -128,7 +128,7 @@ class TuningConfig(_Strict):
 
     ``max_bench_minutes`` bounds the run by the bench clock (the device's time stamps, else the
     estimated bench time): no measurement starts that would end past it; unset, it is the
-    larger of an hour and 720 dwells of the gyro (:mod:`sysid_core.run.budget`).
+    larger of an hour and 1200 dwells of the gyro (:mod:`sysid_core.run.budget`).
     ``max_iterations`` only caps the iterations (default 24); no verdict depends on it.
     """
 
