@@ -33,6 +33,7 @@ __all__ = [
     "DEFAULT_MAX_ITERATIONS",
     "Budget",
     "default_limit_s",
+    "minutes",
     "spent_s",
 ]
 
@@ -53,6 +54,12 @@ BUDGET_DWELLS = 1200
 #: gyros whose windows cannot resolve the acceptance go on for the whole hour and their tracked
 #: answers drift away (68 of 72 against 72); 3, the paper's, ends 51 of 96.
 DEFAULT_MAX_ITERATIONS = 24
+
+
+def minutes(seconds: float) -> str:
+    """``seconds`` in minutes for a message: three digits, whole minutes from 100 on."""
+    value = seconds / 60.0
+    return f"{value:.0f}" if abs(value) >= 100 else f"{value:.3g}"
 
 
 def default_limit_s(dwell_s: float | None) -> float:
@@ -155,16 +162,15 @@ class Budget:
             return None
         key = "max_bench_minutes" if self.minutes is not None else "max_bench_minutes, unset"
         return (
-            f"the bench-time budget of {limit_s / 60:.3g} min ([tuning] {key}) is spent: "
-            f"{spent / 60:.3g} min measured, the next measurement would end at {ends / 60:.3g} min"
+            f"the bench-time budget of {minutes(limit_s)} min ([tuning] {key}) is spent: "
+            f"{minutes(spent)} min measured, the next measurement would end at {minutes(ends)} min"
         )
 
     def describe(self, spent: float | None, limit_s: float) -> str:
         """``bench time 12.4 of 60 min (47.6 left)``, or the budget alone when not known."""
-        limit = limit_s / 60
         if spent is None:
-            return f"bench time not known yet (budget {limit:.3g} min)"
+            return f"bench time not known yet (budget {minutes(limit_s)} min)"
         return (
-            f"bench time {spent / 60:.3g} of {limit:.3g} min "
-            f"({max(limit_s - spent, 0.0) / 60:.3g} left)"
+            f"bench time {minutes(spent)} of {minutes(limit_s)} min "
+            f"({minutes(max(limit_s - spent, 0.0))} left)"
         )

@@ -25,7 +25,7 @@ from sysid_core.errors import BudgetSpentError
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.bench import Bench
 from sysid_core.run.benchtime import dwell, settle
-from sysid_core.run.budget import Budget, spent_s
+from sysid_core.run.budget import Budget, minutes, spent_s
 from sysid_core.run.config import ExperimentConfig
 
 __all__ = ["RunClock", "Seconds", "stamps", "stamps_span_s"]
@@ -157,6 +157,6 @@ class RunClock:
         if self.binding or spent is None:
             return self.budget.describe(spent, self.limit_s)
         return (
-            f"bench time about {spent / 60:.3g} min, estimated from the fitted Q (the budget of "
-            f"{self.limit_s / 60:.3g} min binds a run on a clock or with a stated dwell)"
+            f"bench time about {minutes(spent)} min, estimated from the fitted Q (the budget of "
+            f"{minutes(self.limit_s)} min binds a run on a clock or with a stated dwell)"
         )

@@ -48,7 +48,7 @@ from sysid_core.plugin.registry import Registry, get_registry
 from sysid_core.run.answer import Answer, answer
 from sysid_core.run.bench import Bench
 from sysid_core.run.benchtime import tones
-from sysid_core.run.budget import Budget
+from sysid_core.run.budget import Budget, minutes
 from sysid_core.run.clock import RunClock
 from sysid_core.run.components import build_components
 from sysid_core.run.config import PipelineConfig
@@ -284,7 +284,7 @@ class TuningRun:
             ) from None
         self.notes.append(f"iteration {it}: stopped: {exc}; the run ends at its last answer")
         self.say(self.notes[-1])
-        why = f"the bench-time budget of {self.clock.limit_s / 60:.3g} min is spent"
+        why = f"the bench-time budget of {minutes(self.clock.limit_s)} min is spent"
         ended = summary.stopped_by(why, self.notes, self.clock.spent_s(), self.bench)
         write_json(self.out / "summary.json", ended.as_dict())
         return ended

@@ -90,6 +90,7 @@ def test_a_measurement_that_would_end_past_the_budget_is_refused() -> None:
     assert why is not None and "budget of 10 min ([tuning] max_bench_minutes)" in why
     assert budget.refuse(600.0, None, limit) is not None  # spent, whatever it costs
     assert budget.describe(150.0, limit) == "bench time 2.5 of 10 min (7.5 left)"
+    assert budget.describe(3000.0, 72_000.0) == "bench time 50 of 1200 min (1150 left)"
 
 
 def test_bench_time_spent_is_the_clock_else_the_estimate() -> None:
