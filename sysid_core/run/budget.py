@@ -50,7 +50,7 @@ BUDGET_DWELLS = 1200
 
 #: The default cap on iterations. Measured in the uncontrolled lab (docs/studies/
 #: bench-budget.md, 96 random gyros on draws never developed on): with the budget, a cap of 24
-#: ends 94 of 96 runs within 2 mHz; without a cap that binds before the budget, the runs of fast
+#: ends 95 of 96 runs within 2 mHz; without a cap that binds before the budget, the runs of fast
 #: gyros whose windows cannot resolve the acceptance go on for the whole hour and their tracked
 #: answers drift away (68 of 72 against 72); 3, the paper's, ends 51 of 96.
 DEFAULT_MAX_ITERATIONS = 24
