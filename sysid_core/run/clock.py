@@ -97,9 +97,12 @@ class RunClock:
         """The settling after a bias change (seconds; 0 when nothing says)."""
         return float(self.rates(model)[1][0] or 0.0)
 
-    def spent_s(self) -> float | None:
-        """The bench time spent so far (seconds; the clock's, else estimated), or None."""
-        (dwell_s, _), (settle_s, _) = self.rates()
+    def spent_s(self, rates: tuple[Seconds, Seconds] | None = None) -> float | None:
+        """The bench time spent so far (seconds; the clock's, else estimated), or None.
+
+        ``rates``: :meth:`rates`, when the caller has them.
+        """
+        (dwell_s, _), (settle_s, _) = rates or self.rates()
         b = self.bench
         return spent_s(b.clock_span_s, b.acquisitions, b.bias_changes, dwell_s, settle_s)
 
@@ -107,6 +110,12 @@ class RunClock:
     def limit_s(self) -> float:
         """The budget in seconds (the configured one, else the gyro's own: its dwell's)."""
         return self.budget.limit_s(self.rates()[0][0])
+
+    def binds(self, rates: tuple[Seconds, Seconds]) -> bool:
+        """:attr:`binding`, with the dwell's source from ``rates``."""
+        b = self.bench
+        clock = b.measurements > 0 and b.clock_span_s is not None
+        return clock or rates[0][1] in ("device", "config")
 
     @property
     def binding(self) -> bool:
@@ -118,9 +127,7 @@ class RunClock:
         bandwidth decides), so a run without a clock or a stated dwell reports its estimated
         bench time against the budget and plans with it, but is not stopped by it.
         """
-        b = self.bench
-        clock = b.measurements > 0 and b.clock_span_s is not None
-        return clock or self.rates()[0][1] in ("device", "config")
+        return self.binds(self.rates())
 
     def guard(self, n_acquisitions: int, bias_changes: bool) -> None:
         """Refuse a measurement of ``n_acquisitions`` that would end past a binding budget.
@@ -130,13 +137,14 @@ class RunClock:
         BudgetSpentError
             Saying what was spent and where the measurement would end.
         """
-        if not self.binding:
+        rates = self.rates()  # one estimate from the latest fit for the whole check
+        if not self.binds(rates):
             return
-        (dwell_s, _), (settle_s, _) = self.rates()
+        (dwell_s, _), (settle_s, _) = rates
         cost = None
         if dwell_s is not None:
             cost = n_acquisitions * dwell_s + ((settle_s or 0.0) if bias_changes else 0.0)
-        why = self.budget.refuse(self.spent_s(), cost, self.limit_s)
+        why = self.budget.refuse(self.spent_s(rates), cost, self.budget.limit_s(dwell_s))
         if why is not None:
             raise BudgetSpentError(why)
 
