@@ -65,10 +65,19 @@ from sysid_core.data.schema import load_dataset
 from sysid_core.identification.anchor import anchor, split_offset
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import normalised_stiffness, trace_deviation
-from sysid_core.run.own_splits import windows_pooled
+from sysid_core.run.own_splits import _vector, split_variance, windows_pooled
+from sysid_core.identification.splittrend import TrendModel, forecast
+from sysid_core.model.modal import mass_roots
+import os
+
+KALMAN = {}
+for spec in os.environ.get("KALMAN", "k:1e-3,1800,1.5e-10,1e-3").split(";"):
+    name, values = spec.split(":")
+    v = [float(x) for x in values.split(",")]
+    KALMAN["kalman-" + name] = (TrendModel(*v[:4]), v[4] if len(v) > 4 else 0.0, v[5] if len(v) > 5 else 0.25)
 from sysid_core.run.tracking import NEAR_ACCEPTANCES
 
-WAYS = ["tracker", "anchor", "latest", "mean-3", "weighted-60s", "rate", "pooled", "true-drift"]
+WAYS = ["tracker", "anchor", "latest", "mean-3", "weighted-60s", "rate", "pooled", "true-drift", *KALMAN]
 #: The key of :func:`predictions` that holds the ``rate`` way's change of the split vector in a
 #: minute (mHz), not a prediction.
 RATE = "rate per minute"
@@ -166,6 +175,18 @@ def predictions(
         if len(near) > 2
         else given(offsets[-1]),
     }
+    root, inv_root = mass_roots(model.M)
+    scale = 4 * np.pi**2 * float(np.mean(latest.own.modal_frequencies_hz([])))
+    vecs = np.array([_vector(o, inv_root, scale) for o in offsets])
+    var = [max(split_variance(w.own), 1e-18) for w in near]
+    alone = np.array([
+        _vector(anchor(model, [w.sweep], rate=False).offset - found.offset, inv_root, scale)
+        for w in near
+    ])
+    for name, (trend, fixed, ratio) in KALMAN.items():
+        fc = forecast(ages, vecs, [fixed**2] * len(var) if fixed > 0 else [v + fixed**2 for v in var], at, trend, anchored_hz=alone, anchored_variance=ratio)
+        a, b = fc.vector_hz * scale
+        out[name] = given(root @ np.array([[a, b], [b, -a]]) @ root)
     pooled = windows_pooled(model, base, [(w.sweep, w.own) for w in near], at)
     out["pooled"] = given(offsets[-1] if pooled is None else pooled[0])
     if len(near) > 2:

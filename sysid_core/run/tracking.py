@@ -15,10 +15,9 @@ near-degenerate split and sweeps were measured after it, :meth:`Tracker.stale` s
 run measures the window again at its bias (:meth:`Tracker.refreshed`): the answer is then anchored
 on a window seconds old, and the two measurements of one bias give the drift's rate.
 
-Once four windows or more near degenerate modes tell the split's drift from their noise, the
-split at the next window is where a line in time through their own splits puts it
-(:func:`windows_line`): on a slow gyro, whose windows are tens of minutes apart, the latest
-window's split is stale by the drift.
+The split at the next window is what the windows near degenerate modes predict there
+together (:func:`~sysid_core.run.own_splits.windows_forecast`: one Kalman filter on a line in
+time); with the latest window far from them, what that window predicts alone.
 """
 
 from __future__ import annotations
@@ -34,34 +33,15 @@ import xarray as xr
 from sysid_core.data.schema import requested_bias
 from sysid_core.identification.anchor import anchor
 from sysid_core.identification.drift import OffsetDrift, offset_drift
+from sysid_core.identification.splittrend import SplitForecast
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.clock import stamps
 from sysid_core.run.driftpolicy import DriftPolicy
 from sysid_core.run.evidence import WindowAssessment
-from sysid_core.run.own_splits import (
-    LINE_SIGNIFICANCE,
-    LINE_WINDOWS,
-    POOL_HORIZON_S,
-    SPLIT_SIGNIFICANCE,
-    windows_line,
-    windows_pooled,
-    windows_split,
-)
+from sysid_core.run.own_splits import windows_forecast
 from sysid_core.run.verification import Verification
 
-__all__ = [
-    "LINE_SIGNIFICANCE",
-    "LINE_WINDOWS",
-    "NEAR_ACCEPTANCES",
-    "POOL_HORIZON_S",
-    "SAMPLED_WITHIN",
-    "SPLIT_SIGNIFICANCE",
-    "Tracker",
-    "blind",
-    "windows_line",
-    "windows_pooled",
-    "windows_split",
-]
+__all__ = ["NEAR_ACCEPTANCES", "SAMPLED_WITHIN", "Tracker", "blind"]
 
 #: Measures, saves and judges a sweep: ``(bias, frequencies, path, band)`` to ``(sweep, its
 #: single-bias model, evidence)`` (the protocol's :meth:`~sysid_core.run.protocols.Protocol.sweep`).
@@ -98,6 +78,8 @@ class Tracker:
     blind: list[bool] = field(default_factory=list)
     #: The rates the last :meth:`now` found (common and split), or None.
     rates: OffsetDrift | None = None
+    #: The split the windows predicted at the next window by the last :meth:`now`, or None.
+    forecast: SplitForecast | None = None
 
     @classmethod
     def of(cls, drift: DriftPolicy, acceptance_hz: float) -> Tracker | None:
@@ -222,41 +204,27 @@ class Tracker:
         at = max(found.t_ref, latest) + self.ahead_s()
         moved = found.model_at(model, at)
         # a window whose fit has a mode none of its points came near does not give its own
-        # split: that mode may be a phantom (random gyro 119)
-        anchoring = [
-            (w, own, unseen)
-            for w, own, unseen in zip(self.windows, self.models, self.blind, strict=True)
-            if any(w is c for c in chosen)
-        ]
-        pairs = [(w, own) for w, own, unseen in anchoring if not unseen]
-        refused = len(anchoring) - len(pairs)
-        near = [
-            (w, own)
+        # split: that mode may be a phantom (docs/drift-model.md)
+        usable = [
+            (w, own, s)
             for w, own, s, unseen in zip(
                 self.windows, self.models, self.splits, self.blind, strict=True
             )
-            if s <= self.near_hz and not unseen
+            if not unseen
         ]
-        # pooled or a line only while the latest window is itself near degenerate modes
-        latest_near = bool(near) and near[-1][0] is self.windows[-1]
-        pooled = windows_pooled(model, moved, near, at) if latest_near else None
-        line = (
-            pooled[0]
-            if pooled is not None
-            else windows_line(model, moved, near, at)
-            if latest_near
-            else None
-        )
-        # else the split of the latest window that gives one: the windows sit at different
-        # biases and times, and the mean of their splits' orientations can cancel (gyro 313)
-        offset, shift_hz = (
-            (line, 0.0)
-            if line is not None
-            else windows_split(model, found, pairs[-1:])
-            if pairs
-            else (np.zeros((2, 2)), 0.0)
-        )
-        moved = dataclasses.replace(moved, K0=np.asarray(moved.K0) + offset)
+        refused = len(self.windows) - len(usable)
+        near = [(w, own) for w, own, s in usable if s <= self.near_hz]
+        # the windows near degenerate modes while the latest is one of them; else the latest
+        # window that gives its own split, alone: far from degenerate modes, windows sit at
+        # biases between which the model's law misses more than the drift
+        if near and near[-1][0] is self.windows[-1]:
+            chosen_own = near
+        else:
+            chosen_own = [(w, own) for w, own, _ in usable[-1:]]
+        self.forecast = None
+        if chosen_own:
+            offset, self.forecast = windows_forecast(model, moved, chosen_own, at)
+            moved = dataclasses.replace(moved, K0=np.asarray(moved.K0) + offset)
         self.rates = seen = offset_drift(moved)
         split = (
             "split's rate not told from the noise"
@@ -268,17 +236,12 @@ class Tracker:
             if seen is None
             else f"; drift {seen.common_hz_per_h * 1e3:+.4g} mHz/h common, {split}"
         )
-        if pooled is not None:
-            own = (
-                f"; the split of {pooled[1]} windows of the last {POOL_HORIZON_S / 60:.0f} min "
-                "pooled"
-            )
-        elif line is not None:
-            own = f"; the split of a line in time through {len(near)} windows' own splits"
-        elif shift_hz:
-            own = f"; the latest window's own split moves it {shift_hz * 1e3:.3g} mHz"
-        else:
-            own = ""
+        own = (
+            ""
+            if self.forecast is None
+            else f"; {self.forecast.windows} window(s) predict a split of "
+            f"{self.forecast.split_hz * 1e3:.3g} ± {1.96 * self.forecast.sigma_hz * 1e3:.2g} mHz"
+        )
         if refused:
             own += (
                 f"; {refused} window(s) give no split of their own (a fitted mode that none of "
