@@ -65,7 +65,7 @@ from sysid_core.data.schema import load_dataset
 from sysid_core.identification.anchor import anchor, split_offset
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import normalised_stiffness, trace_deviation
-from sysid_core.run.own_splits import _vector, split_variance, windows_pooled
+from sysid_core.run.own_splits import _vector, split_variance
 from sysid_core.identification.splittrend import TrendModel, forecast
 from sysid_core.model.modal import mass_roots
 import os
@@ -77,7 +77,7 @@ for spec in os.environ.get("KALMAN", "k:1e-3,1800,1.5e-10,1e-3").split(";"):
     KALMAN["kalman-" + name] = (TrendModel(*v[:4]), v[4] if len(v) > 4 else 0.0, v[5] if len(v) > 5 else 0.25)
 from sysid_core.run.tracking import NEAR_ACCEPTANCES
 
-WAYS = ["tracker", "anchor", "latest", "mean-3", "weighted-60s", "rate", "pooled", "true-drift", *KALMAN]
+WAYS = ["tracker", "anchor", "latest", "mean-3", "weighted-60s", "rate", "true-drift", "kalman-run", *KALMAN]
 #: The key of :func:`predictions` that holds the ``rate`` way's change of the split vector in a
 #: minute (mHz), not a prediction.
 RATE = "rate per minute"
@@ -184,11 +184,13 @@ def predictions(
         for w in near
     ])
     for name, (trend, fixed, ratio) in KALMAN.items():
-        fc = forecast(ages, vecs, [fixed**2] * len(var) if fixed > 0 else [v + fixed**2 for v in var], at, trend, anchored_hz=alone, anchored_variance=ratio)
+        fc = forecast(ages, vecs, [fixed**2] * len(var) if fixed > 0 else [v + fixed**2 for v in var], at, trend, anchored_hz=alone, anchored_variances=[ratio * x for x in ([fixed**2] * len(var) if fixed > 0 else var)])
         a, b = fc.vector_hz * scale
         out[name] = given(root @ np.array([[a, b], [b, -a]]) @ root)
-    pooled = windows_pooled(model, base, [(w.sweep, w.own) for w in near], at)
-    out["pooled"] = given(offsets[-1] if pooled is None else pooled[0])
+    from sysid_core.run.own_splits import windows_forecast
+    _, fc = windows_forecast(model, base, [(w.sweep, w.own) for w in near], at)
+    a, b = fc.vector_hz * scale
+    out["kalman-run"] = given(root @ np.array([[a, b], [b, -a]]) @ root)
     if len(near) > 2:
         later = given(_line(ages, flat, np.ones_like(ages), at + 60.0).reshape(2, 2))
         out[RATE] = later - out["rate"]

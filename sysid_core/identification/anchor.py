@@ -54,6 +54,9 @@ class Anchor:
         How many sweeps anchored it.
     span_s : float
         The time they span.
+    offset_covariance : ndarray (3, 3) or None
+        The covariance of the offset's entries ``[A11, A12, A22]`` from the least squares'
+        residuals (None without degrees of freedom).
     """
 
     offset: np.ndarray
@@ -61,6 +64,7 @@ class Anchor:
     t_ref: float
     sweeps: int
     span_s: float
+    offset_covariance: np.ndarray | None = None
 
     def model_at(self, model: FittedModel, t_s: float) -> FittedModel:
         """``model`` with its stiffness at time ``t_s``; its ``meta`` says how it was made."""
@@ -162,7 +166,20 @@ def anchor(
         t_ref=t_ref,
         sweeps=len(rows),
         span_s=span,
+        offset_covariance=None if with_rate else _offset_covariance(a_all, y_all, x),
     )
+
+
+def _offset_covariance(a: np.ndarray, y: np.ndarray, x: np.ndarray) -> np.ndarray | None:
+    """The first three rows and columns of ``s² (aᵀa)⁻¹`` for ``a x ≈ y``; None if ``n <= p``."""
+    n, p = a.shape
+    if n <= p:
+        return None
+    resid = y - a @ x
+    scale = _column_scale(a)
+    inner = np.linalg.pinv((a / scale).T @ (a / scale))
+    cov = float(resid @ resid) / (n - p) * inner / np.outer(scale, scale)
+    return cov[:3, :3]
 
 
 #: The split's rate (the anisotropic part of ``D``) is kept when its Wald statistic exceeds the

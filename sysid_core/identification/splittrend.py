@@ -32,8 +32,8 @@ import numpy as np
 
 __all__ = ["LAB_TREND", "SplitForecast", "TrendModel", "forecast"]
 
-#: The variance (Hz²) of a level nothing has measured yet: a million times a split of a Hz.
-_DIFFUSE_HZ2 = 1e6
+#: The variance of a level nothing has measured yet, over the largest the data hold.
+_DIFFUSE = 1e6
 
 
 @dataclass(frozen=True)
@@ -127,7 +127,7 @@ def forecast(
     at_s: float,
     model: TrendModel,
     anchored_hz: np.ndarray | None = None,
-    anchored_variance: float = 1.0,
+    anchored_variances: Sequence[float] | None = None,
 ) -> SplitForecast:
     """The split vector at ``at_s``, filtered from the windows' split vectors.
 
@@ -146,7 +146,10 @@ def forecast(
     anchored_hz : ndarray (n, 2), optional
         Each window's split vector as the reference model anchored on that window alone
         measures it: the truth plus what the model misses (a state of its own, prior
-        ``model.model_error_hz²``), with ``anchored_variance`` times the window's variance.
+        ``model.model_error_hz²``).
+    anchored_variances : sequence of float, optional
+        Their variances per component (Hz²); the windows' own by default. An infinite one
+        measures nothing.
 
     Returns
     -------
@@ -173,11 +176,19 @@ def forecast(
         rows.append((float(t[i]), own, y[i], float(r[i])))
         if anchored_hz is not None and np.isfinite(model.model_error_hz):
             a = np.asarray(anchored_hz, dtype=float).reshape(-1, 2)[i]
-            rows.append((float(t[i]), both, a, anchored_variance * float(r[i])))
+            va = float(r[i] if anchored_variances is None else anchored_variances[i])
+            if np.isfinite(va):
+                rows.append((float(t[i]), both, a, va))
     # state rows: the level, its rate, what the anchored model misses; columns: the components
     x = np.zeros((3, 2))
-    m2 = model.model_error_hz**2 if np.isfinite(model.model_error_hz) else _DIFFUSE_HZ2
-    p = np.diag([_DIFFUSE_HZ2, model.rate_hz_per_s**2, m2])
+    # "nothing known" as a variance a million times any the data hold: far wider than them,
+    # not so wide that the first update loses their digits
+    scale = max(float(np.max(r)), float(np.max(y**2)), 1e-30)
+    if np.isfinite(model.model_error_hz):
+        scale = max(scale, model.model_error_hz**2)
+    diffuse = _DIFFUSE * scale
+    m2 = model.model_error_hz**2 if np.isfinite(model.model_error_hz) else diffuse
+    p = np.diag([diffuse, model.rate_hz_per_s**2, m2])
     now = rows[0][0]
     for when, h, vector, variance in rows:
         x, p, now = *_predict(x, p, model, when - now), when

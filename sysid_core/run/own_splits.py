@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
+from sysid_core.conic.program import SYM_BASIS
 from sysid_core.identification.anchor import anchor, split_offset
 from sysid_core.identification.splittrend import LAB_TREND, SplitForecast, TrendModel, forecast
 from sysid_core.model.fitted import FittedModel
@@ -43,11 +44,10 @@ def windows_forecast(
 ) -> tuple[np.ndarray, SplitForecast]:
     """The offset that gives ``moved`` the split the windows predict at ``at``, and the forecast.
 
-    ``windows``: sweeps and their own single-bias models, oldest first. Every window's two
-    measurements (its own split, and the run's model anchored on it alone) share one variance:
-    the median of the windows' own (from their split intervals), so that a window whose
-    interval came out narrow does not outweigh the rest; its scale sets the forecast's
-    variance. The offset is traceless: ``moved``'s mean frequency stays.
+    ``windows``: sweeps and their own single-bias models, oldest first. Each window measures
+    the split twice, each with its fit's variance: its own split (from its split interval)
+    and the run's model anchored on it alone (from the anchor's least squares). The offset is
+    traceless: ``moved``'s mean frequency stays.
 
     Raises
     ------
@@ -58,21 +58,32 @@ def windows_forecast(
         raise ValueError("windows_forecast needs at least one window")
     frame = _Frame.of(model, windows)
     base, inv_root, scale = frame.base, frame.inv_root, frame.scale
-    own, anchored, times, variances = [], [], [], []
+    # the split vector of each of the offset's three entries: the map is linear
+    columns = np.array([_vector(basis, inv_root, scale) for basis in SYM_BASIS]).T
+    own, anchored, times, variances, anchored_var = [], [], [], [], []
     for sweep, own_model in windows:
         own.append(_vector(split_offset(base, sweep, own_model), inv_root, scale))
-        alone = anchor(model, [sweep], rate=False).offset - frame.offset
-        anchored.append(_vector(alone, inv_root, scale))
+        alone = anchor(model, [sweep], rate=False)
+        anchored.append(_vector(alone.offset - frame.offset, inv_root, scale))
         times.append(float(stamps(sweep).mean()))
-        variances.append(split_variance(own_model))
-    common = float(np.median(variances)) or _FLOOR_HZ2
+        variances.append(max(split_variance(own_model), _FLOOR_HZ2))
+        cov = alone.offset_covariance
+        anchored_var.append(
+            np.inf if cov is None else max(0.5 * np.trace(columns @ cov @ columns.T), _FLOOR_HZ2)
+        )
     found = forecast(
-        times, np.asarray(own), [common] * len(times), at, trend, anchored_hz=np.asarray(anchored)
+        times,
+        np.asarray(own),
+        variances,
+        at,
+        trend,
+        anchored_hz=np.asarray(anchored),
+        anchored_variances=anchored_var,
     )
     return _offset_to(base, moved, found.vector_hz, scale), found
 
 
-#: A window variance of zero (no interval) stands for this: a hundredth of a mHz, squared.
+#: A variance of zero (a fit without residuals) stands for this: a hundredth of a mHz, squared.
 _FLOOR_HZ2 = 1e-10
 
 
