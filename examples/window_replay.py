@@ -1,7 +1,7 @@
 """Replay a tracked run's windows: which way of combining them predicts the next split best.
 
     python examples/drift_population.py --bench lab --drift track --seeds 101-124 --iterations 8
-    python examples/window_replay.py runs/drift-population
+    python examples/window_replay.py runs/drift-population --trend line=1e-3,1e9,0,inf,7e-4,0
 
 For every gyro of a population run (its folder, of ``examples/drift_population.py``; several
 folders make one table; ``--draw`` the draw they were run with) and every iteration after which
@@ -16,8 +16,8 @@ as it is). The split vector is the deviation ``d`` of the normalised stiffness
 in Hz, its direction the modes' orientation. The ways:
 
 * ``tracker``: the run's own answer model (the next iteration's ``model-now.nc``: its fit
-  anchored on up to four windows, moved by the latest window's own split when that is beyond
-  its noise; :class:`sysid_core.run.tracking.Tracker`);
+  anchored on up to four windows, moved by the split its windows predict;
+  :class:`sysid_core.run.tracking.Tracker`);
 * ``anchor``: the next iteration's fit anchored on the latest window alone;
 * ``latest``: that, given the latest window's own split
   (:func:`sysid_core.identification.anchor.split_offset`), always;
@@ -25,11 +25,11 @@ in Hz, its direction the modes' orientation. The ways:
   anchored model at its own time and bias;
 * ``weighted-60s``: their mean over every window, weighted by ``exp(−age / 60 s)``;
 * ``rate``: a straight line in time through every window's, taken to the next window's time;
-* ``pooled``: the windows of the last 10 minutes pooled
-  (:func:`sysid_core.run.own_splits.windows_pooled`: each anchored alone, moved by the mean
-  difference of their own splits from those, a line in time with a prior on its slope), the
-  tracker's way since it was measured here; where fewer than two windows are that recent,
-  the latest window's own split (the run itself keeps its line or its significance test);
+* ``filter``: the run's estimator on the same windows
+  (:func:`sysid_core.run.own_splits.windows_forecast`: one Kalman filter on a line in time
+  through each window's own split and its anchored one, each with its fit's variance);
+* ``filter-NAME``: a variant of it given with ``--trend`` (another trend model, every window
+  with one noise, or without the anchored measurements);
 * ``true-drift``: the mean of the four latest windows' own splits, each brought to the latest
   window's time and then to the next window's by the TRUE drift of the split (the replica's
   change of the split vector at the window's bias), which no run knows: what combining the
@@ -63,21 +63,29 @@ from drift_population import make_device
 from sysid_core.api import load_model
 from sysid_core.data.schema import load_dataset
 from sysid_core.identification.anchor import anchor, split_offset
-from sysid_core.model.fitted import FittedModel
-from sysid_core.model.modal import normalised_stiffness, trace_deviation
-from sysid_core.run.own_splits import _vector, split_variance
 from sysid_core.identification.splittrend import TrendModel, forecast
-from sysid_core.model.modal import mass_roots
-import os
-
-KALMAN = {}
-for spec in os.environ.get("KALMAN", "k:1e-3,1800,1.5e-10,1e-3").split(";"):
-    name, values = spec.split(":")
-    v = [float(x) for x in values.split(",")]
-    KALMAN["kalman-" + name] = (TrendModel(*v[:4]), v[4] if len(v) > 4 else 0.0, v[5] if len(v) > 5 else 0.25)
+from sysid_core.model.fitted import FittedModel
+from sysid_core.model.modal import mass_roots, normalised_stiffness, trace_deviation
+from sysid_core.run.own_splits import _vector, split_variance, windows_forecast
 from sysid_core.run.tracking import NEAR_ACCEPTANCES
 
-WAYS = ["tracker", "anchor", "latest", "mean-3", "weighted-60s", "rate", "true-drift", "kalman-run", *KALMAN]
+#: ``--trend`` variants of the filter: name to (model, fixed window noise in Hz or 0 for each
+#: window's own variance, anchored measurements' variance over the own ones or 0 for none).
+KALMAN: dict[str, tuple[TrendModel, float, float]] = {}
+
+
+def trend_variant(spec: str) -> tuple[str, tuple[TrendModel, float, float]]:
+    """``NAME=σ_r,τ_r,q_s,σ_m[,noise[,ratio]]`` (Hz/s, s, Hz²/s, Hz, Hz, 1) as a variant."""
+    name, _, values = spec.partition("=")
+    v = [float(x) for x in values.split(",")]
+    if len(v) < 4:
+        raise argparse.ArgumentTypeError(f"--trend {spec!r}: NAME=σ_r,τ_r,q_s,σ_m[,noise[,ratio]]")
+    noise = v[4] if len(v) > 4 else 0.0
+    ratio = v[5] if len(v) > 5 else 1.0
+    return "filter-" + name, (TrendModel(*v[:4]), noise, ratio)
+
+
+WAYS = ["tracker", "anchor", "latest", "mean-3", "weighted-60s", "rate", "filter", "true-drift"]
 #: The key of :func:`predictions` that holds the ``rate`` way's change of the split vector in a
 #: minute (mHz), not a prediction.
 RATE = "rate per minute"
@@ -179,18 +187,28 @@ def predictions(
     scale = 4 * np.pi**2 * float(np.mean(latest.own.modal_frequencies_hz([])))
     vecs = np.array([_vector(o, inv_root, scale) for o in offsets])
     var = [max(split_variance(w.own), 1e-18) for w in near]
-    alone = np.array([
-        _vector(anchor(model, [w.sweep], rate=False).offset - found.offset, inv_root, scale)
-        for w in near
-    ])
-    for name, (trend, fixed, ratio) in KALMAN.items():
-        fc = forecast(ages, vecs, [fixed**2] * len(var) if fixed > 0 else [v + fixed**2 for v in var], at, trend, anchored_hz=alone, anchored_variances=[ratio * x for x in ([fixed**2] * len(var) if fixed > 0 else var)])
+    alone = np.array(
+        [
+            _vector(anchor(model, [w.sweep], rate=False).offset - found.offset, inv_root, scale)
+            for w in near
+        ]
+    )
+    for name, (trend, noise, ratio) in KALMAN.items():
+        own_var = [noise**2] * len(var) if noise > 0 else var
+        fc = forecast(
+            ages,
+            vecs,
+            own_var,
+            at,
+            trend,
+            anchored_hz=alone if ratio > 0 else None,
+            anchored_variances=[ratio * x for x in own_var],
+        )
         a, b = fc.vector_hz * scale
         out[name] = given(root @ np.array([[a, b], [b, -a]]) @ root)
-    from sysid_core.run.own_splits import windows_forecast
     _, fc = windows_forecast(model, base, [(w.sweep, w.own) for w in near], at)
     a, b = fc.vector_hz * scale
-    out["kalman-run"] = given(root @ np.array([[a, b], [b, -a]]) @ root)
+    out["filter"] = given(root @ np.array([[a, b], [b, -a]]) @ root)
     if len(near) > 2:
         later = given(_line(ages, flat, np.ones_like(ages), at + 60.0).reshape(2, 2))
         out[RATE] = later - out["rate"]
@@ -279,7 +297,7 @@ def table(rows: dict[str, list[dict[str, float]]], frequency_hz: dict[str, float
         ("under 8 kHz", lambda f: f < FAST_HZ),
         ("8 kHz or more", lambda f: f >= FAST_HZ),
     ]
-    for way in WAYS:
+    for way in [*WAYS, *KALMAN]:
         for label, keep in kinds:
             e = np.array(
                 [r[way] for g, rs in rows.items() if keep(frequency_hz[g]) for r in rs if way in r]
@@ -314,7 +332,17 @@ def main() -> None:
     )
     parser.add_argument("--draw", type=int, default=0, help="the draw the runs were made with")
     parser.add_argument("--bench", default="lab", help="the bench the runs were made on")
+    parser.add_argument(
+        "--trend",
+        type=trend_variant,
+        action="append",
+        default=[],
+        help="a variant of the filter, NAME=σ_r,τ_r,q_s,σ_m[,noise[,ratio]] (Hz/s, s, Hz²/s, "
+        "Hz; noise: every window's in Hz, 0 for each its own; ratio: the anchored "
+        "measurements' variance over the own ones, 0 for none); repeatable",
+    )
     args = parser.parse_args()
+    KALMAN.update(args.trend)
     gyros = [path for runs in args.runs for path in sorted(runs.glob("gyro*/summary.json"))]
     if not gyros:
         names = " ".join(str(runs) for runs in args.runs)

@@ -225,22 +225,19 @@ class Tracker:
         if chosen_own:
             offset, self.forecast = windows_forecast(model, moved, chosen_own, at)
             moved = dataclasses.replace(moved, K0=np.asarray(moved.K0) + offset)
-        self.rates = seen = offset_drift(moved)
-        split = (
-            "split's rate not told from the noise"
-            if seen is None or abs(seen.split_hz_per_h) < 1e-9
-            else f"split {seen.split_hz_per_h * 1e3:.3g} mHz/h"
-        )
-        rates = (
-            ""
-            if seen is None
-            else f"; drift {seen.common_hz_per_h * 1e3:+.4g} mHz/h common, {split}"
-        )
+        seen = offset_drift(moved)
+        if seen is not None and self.forecast is not None:
+            # the split's rate is the filter's (the anchor's is only the windows it holds)
+            rate = float(np.hypot(*self.forecast.rate_hz_per_s)) * 3600.0
+            seen = dataclasses.replace(seen, split_hz_per_h=rate)
+        self.rates = seen
+        rates = "" if seen is None else f"; drift {seen.common_hz_per_h * 1e3:+.4g} mHz/h common"
         own = (
             ""
             if self.forecast is None
             else f"; {self.forecast.windows} window(s) predict a split of "
-            f"{self.forecast.split_hz * 1e3:.3g} ± {1.96 * self.forecast.sigma_hz * 1e3:.2g} mHz"
+            f"{self.forecast.split_hz * 1e3:.3g} ± {1.96 * self.forecast.sigma_hz * 1e3:.2g} "
+            f"mHz, moving {np.hypot(*self.forecast.rate_hz_per_s) * 6e4:.2g} mHz/min"
         )
         if refused:
             own += (
