@@ -2,9 +2,9 @@
 
 :func:`answer` solves the criterion (a quadratic law by repeated linearization), continues from
 the best reachable bias when the model's "unreachable" may be its extrapolation, moves the
-answer to the DAC code the model predicts best, goes back to the least measured split's bias
-when the model predicts its own answer far worse than that (:func:`worse_than_measured`),
-checks the bias against the device's limits and attaches the answer's confidence region.
+answer to the DAC code the model predicts best, does not apply an answer the run's measurements
+do not support (:mod:`sysid_core.run.trust`), checks the bias against the device's limits and
+attaches the answer's confidence region.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from sysid_core.errors import UnreachableTuningError
 from sysid_core.identification.drift import drift_modelled
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.dac import best_code
+from sysid_core.run.trust import untrusted_step, worse_than_measured
 from sysid_core.tuning.confidence import confidence_region
 from sysid_core.tuning.criteria import (
     BiasSpace,
@@ -33,15 +34,12 @@ from sysid_core.tuning.criteria import (
 
 __all__ = [
     "REFUTES",
-    "WORSE",
-    "WORSE_ACCEPTANCES",
     "Answer",
     "answer",
     "apply_best_code",
     "best_effort",
     "dac_floor",
     "reach_with",
-    "worse_than_measured",
 ]
 
 #: The DAC's floor is said when its best code near an answer is predicted to leave at least this
@@ -51,13 +49,6 @@ DAC_FLOOR_SHARE = 0.5
 #: A verification that measured a split under this share of the best split a model can reach
 #: refutes the model's verdict "cannot be made degenerate" (:func:`best_effort`).
 REFUTES = 0.5
-
-#: An answer whose own model predicts at its DAC code more than this many times the least split
-#: a verification of the run measured (and more than :data:`WORSE_ACCEPTANCES` acceptances) is
-#: not applied: the run goes back to that verification's bias (:func:`worse_than_measured`).
-WORSE = 2.0
-#: ... and more than this many acceptances.
-WORSE_ACCEPTANCES = 10.0
 
 
 @dataclass(frozen=True)
@@ -97,6 +88,8 @@ def answer(
     every_sweep: Callable[[], FittedModel | None] | None = None,
     acceptance_hz: float | None = None,
     least_measured: tuple[float, np.ndarray] | None = None,
+    latest_measured: tuple[float, np.ndarray] | None = None,
+    near_acceptances: float = 10.0,
 ) -> Answer:
     """The answer of iteration ``it`` (see the module).
 
@@ -105,7 +98,9 @@ def answer(
     (:func:`reach_with`); otherwise :func:`best_effort` decides, told the least split a
     verification of the run measured and its bias (``least_measured``). With
     ``acceptance_hz``, an answer whose DAC code leaves a sizeable share of it is said
-    (:func:`dac_floor`).
+    (:func:`dac_floor`). An answer the run's measurements do not support is not applied
+    (:mod:`sysid_core.run.trust`): the run goes back to the least measured split's bias, or
+    takes the linearised step from the latest verified bias (``latest_measured``).
     """
     try:
         result, local = solve_criterion(criterion, model, space)
@@ -151,6 +146,31 @@ def answer(
             "measured_split_hz": float(measured),
         }
         return Answer(result, bias, True, model)
+    untrusted = (
+        None
+        if criterion.name != "degenerate" or acceptance_hz is None
+        else untrusted_step(
+            model,
+            step.bias,
+            latest_measured,
+            space.index,
+            acceptance_hz,
+            bias_step,
+            near_acceptances,
+        )
+    )
+    if untrusted is not None:
+        bias = check_bias(device.device, untrusted)
+        b0 = np.asarray(latest_measured[1], dtype=float)[space.index]  # type: ignore[index]
+        say(
+            f"iteration {it}: the answer [{', '.join(f'{b:.4f}' for b in step.bias)}] V lies "
+            f"{np.max(np.abs(step.bias[space.index] - b0)):.3g} V from the bias verified at "
+            f"{latest_measured[0] * 1e3:.3g} mHz, beyond the step its model's law asks there; "  # type: ignore[index]
+            "taking that step and measuring the local design"
+        )
+        result = _result_at(bias, space, model, criterion.name)
+        result.info["untrusted_answer"] = [float(b) for b in step.bias]
+        return Answer(result, bias, True, model)
     floor = dac_floor(step.result.info, acceptance_hz)
     if floor is not None and acceptance_hz is not None:
         say(
@@ -159,30 +179,6 @@ def answer(
             "DAC, another electrode or a wider acceptance would help"
         )
     return step
-
-
-def worse_than_measured(
-    result: TuningResult,
-    criterion_name: str,
-    least_measured: tuple[float, np.ndarray] | None,
-    acceptance_hz: float | None,
-) -> tuple[float, np.ndarray] | None:
-    """The least measured split and its bias if ``result`` is predicted worse, else None.
-
-    Degenerate modes only: an answer whose own model predicts, at the DAC code that will be
-    applied, a split over :data:`WORSE` times the least one a verification of the run measured
-    and over :data:`WORSE_ACCEPTANCES` acceptances is an extrapolation the model itself does not
-    believe (measured: random gyro 116 in the lab, whose anchored quadratic model sent its
-    seventh answer to B2 = -9.5 V, 4.7 V beyond any sweep, predicting 17.8 Hz at the code
-    after a verification had measured 9.7 mHz; the run ended 255 mHz apart).
-    """
-    if criterion_name != "degenerate" or least_measured is None or acceptance_hz is None:
-        return None
-    measured, where = least_measured
-    predicted = float(result.split_hz)
-    if predicted > max(WORSE * measured, WORSE_ACCEPTANCES * acceptance_hz):
-        return measured, np.asarray(where, dtype=float)
-    return None
 
 
 def dac_floor(info: Mapping[str, Any], acceptance_hz: float | None) -> float | None:

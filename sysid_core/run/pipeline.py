@@ -57,7 +57,7 @@ from sysid_core.run.judgement import aim_fraction, verdict
 from sysid_core.run.plots import PLOT_FORMATS, plot_bias_path, plot_iteration
 from sysid_core.run.previous import check_prior
 from sysid_core.run.protocols import RunContext, make_protocol
-from sysid_core.run.summary import IterationRecord, Least, RunSummary, least_measured, summarize
+from sysid_core.run.summary import IterationRecord, Least, RunSummary, summarize, verified_splits
 from sysid_core.run.sweeps import SweepPlan
 from sysid_core.run.timeline import plot_timeline
 from sysid_core.run.tracking import Tracker
@@ -229,7 +229,7 @@ class TuningRun:
                 fit_time = time.perf_counter() - t0
                 aim = aim_fraction(cfg.aim, self.tracking)
                 now = self._track(it, model, ds) if self.tracking else model
-                step = self._answer(it, now, bias, folder, least_measured(history))
+                step = self._answer(it, now, bias, folder, verified_splits(history))
                 # the fit of every sweep, if the local one fell short
                 now = step.model if step.model is not None else now
                 ver = self.protocol.verify(step.bias, step.result, now, folder)
@@ -269,8 +269,7 @@ class TuningRun:
             if converged or stop is not None:
                 break
             self.protocol.learned(step.moved, bias, ver, step.result.confidence)
-            # The next identification starts from what was measured: around the modes if
-            # they were found, over the whole band if not.
+            # the next identification: around the modes if they were found, else the band
             found = ver.frequencies_hz is not None
             center, split = (ver.frequency_hz, float(ver.split_hz or 0.0)) if found else (None, 0.0)
         return summary
@@ -329,9 +328,9 @@ class TuningRun:
         return now
 
     def _answer(
-        self, it: int, model: FittedModel, bias: np.ndarray, folder: Path, least: Least
+        self, it: int, model: FittedModel, bias: np.ndarray, folder: Path, seen: tuple[Least, Least]
     ) -> Answer:
-        """Step 3 at ``bias``, told the least split verified so far (``least``); saved, said."""
+        """Step 3 at ``bias``, told the least and the latest split verified (``seen``)."""
         space = BiasSpace(
             self.electrodes,
             self.space.tuned,
@@ -355,7 +354,8 @@ class TuningRun:
             say=self.say,
             every_sweep=every_sweep,
             acceptance_hz=self.config.tuning.acceptance_hz,
-            least_measured=least,
+            least_measured=seen[0],
+            latest_measured=seen[1],
         )
         result = step.result
         write_json(folder / "tuning.json", result.as_dict())

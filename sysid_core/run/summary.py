@@ -28,9 +28,11 @@ __all__ = [
     "IterationRecord",
     "Least",
     "RunSummary",
+    "latest_measured",
     "least_measured",
     "status_line",
     "summarize",
+    "verified_splits",
 ]
 
 #: The confidence region's keys in ``summary.json`` and the ``--json`` line.
@@ -357,3 +359,20 @@ def least_measured(history: list[IterationRecord]) -> Least:
         and np.isfinite(h.measured_split_hz)
     ]
     return min(found, key=lambda pair: pair[0]) if found else None
+
+
+def latest_measured(history: list[IterationRecord]) -> Least:
+    """The latest iteration's verified split and its bias, or None (not verified)."""
+    if not history:
+        return None
+    h = history[-1]
+    if h.verification != "verified" or h.measured_split_hz is None:
+        return None
+    if not np.isfinite(h.measured_split_hz):
+        return None
+    return float(h.measured_split_hz), np.asarray(h.verified_bias, dtype=float)
+
+
+def verified_splits(history: list[IterationRecord]) -> tuple[Least, Least]:
+    """:func:`least_measured` and :func:`latest_measured` of ``history``."""
+    return least_measured(history), latest_measured(history)

@@ -17,7 +17,7 @@ from truths import PAPER_BIASES, PAPER_FREQS, V_GYRO, cloverleaf_truth, degenera
 from sysid_core import fit, tune
 from sysid_core.errors import ConfigError
 from sysid_core.plugin.registry import get_registry
-from sysid_core.run.answer import WORSE, answer, best_effort, worse_than_measured
+from sysid_core.run.answer import answer, best_effort
 from sysid_core.run.judgement import (
     DRIFTING_AIM,
     RESOLVE_FACTOR,
@@ -25,6 +25,7 @@ from sysid_core.run.judgement import (
     holds_s,
     honest_goals,
 )
+from sysid_core.run.trust import WORSE, worse_than_measured
 from sysid_core.run.verification import Verification
 from sysid_core.tuning.criteria import BiasSpace
 
@@ -256,3 +257,39 @@ def test_answer_goes_back_to_the_least_measured_split() -> None:
     np.testing.assert_allclose(step.bias, where)
     assert "going back there" in lines[-1]
     assert step.result.info["worse_than_measured"]["measured_split_hz"] == tiny
+
+
+@pytest.mark.parametrize(
+    ("offset", "measured", "far", "stepped"),
+    [
+        ((0.01, -0.01), 0.005, 3.0, True),  # near, an answer 3 V away: the linear step instead
+        ((0.01, -0.01), 0.005, 0.0, False),  # near, the answer the local correction: applied
+        ((0.01, -0.01), 0.05, 3.0, False),  # 50 mHz is not near (ten acceptances): applied
+        ((0.2, -0.2), 0.005, 0.15, False),  # a jump within the local design's step: applied
+    ],
+)
+def test_an_answer_beyond_the_linearised_step_from_a_near_bias_is_not_taken(
+    offset: tuple[float, float], measured: float, far: float, stepped: bool
+) -> None:
+    """The fitted cloverleaf model, a verification near its degenerate bias: an answer far
+    beyond the step the model's law asks there (another root, or the law carried where no
+    sweep measured it) is replaced by that step, which lands near the degenerate bias."""
+    from sysid_core.run.trust import untrusted_step
+
+    model = fit(simulate(cloverleaf_truth(), PAPER_BIASES, PAPER_FREQS))
+    start = np.array([1.0, 1.0, 0.0])
+    space = BiasSpace(["B1", "B2", "B3"], ["B1", "B2"], start, (-10.0, 10.0), V_GYRO)
+    reg = get_registry()
+    criterion = reg.criterion("degenerate", solver=reg.solver("clarabel"))
+    from sysid_core.tuning.criteria import solve_criterion
+
+    root = solve_criterion(criterion, model, space)[0].bias
+    b0 = root + np.array([*offset, 0.0])
+    answer_bias = root + np.array([far, 0.0, 0.0])
+    found = untrusted_step(model, answer_bias, (measured, b0), space.index, ACCEPTANCE, 0.25, 10.0)
+    assert (found is not None) is stepped
+    if found is not None:
+        # the Gauss-Newton step from 14 mV away lands within a millivolt of the root
+        np.testing.assert_allclose(found[:2], root[:2], atol=1e-3)
+        assert found[2] == b0[2]
+    assert untrusted_step(model, answer_bias, None, space.index, ACCEPTANCE, 0.25, 10.0) is None

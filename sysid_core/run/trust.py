@@ -1,0 +1,129 @@
+"""Whether an answer may be applied: what the run's own measurements support.
+
+A model answers anywhere inside the limits, but its bias law is only measured near the biases
+the run swept. Two rules, for degenerate modes, keep the run from stepping where its data do not
+reach:
+
+* :func:`worse_than_measured`: an answer whose own model predicts, at the DAC code that will be
+  applied, a split over :data:`WORSE` times the least one a verification of the run measured
+  and over :data:`WORSE_ACCEPTANCES` acceptances is an extrapolation the model itself does not
+  believe; the run goes back to that verification's bias and measures the local design.
+* :func:`untrusted_step`: once a verification measured a split near degenerate modes (under
+  :data:`~sysid_core.run.tracking.NEAR_ACCEPTANCES` acceptances), what is left to correct is
+  small, and the model's own law, linearised at the verified bias, says how far to go (the
+  Gauss-Newton step: the split vector is smooth in the bias there). An answer further than
+  twice that step, and further than the local design reaches (``[experiment] bias_step``),
+  is not that correction: another root of the law, or the law carried where no sweep measured
+  it. The run takes the linearised step instead (no longer than ``bias_step``), which the
+  data around the verified bias support, and measures the local design there.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sysid_core.model.fitted import FittedModel
+from sysid_core.model.modal import normalised_stiffness, trace_deviation
+from sysid_core.tuning.criteria import TuningResult
+
+__all__ = [
+    "BEYOND_LINEAR",
+    "WORSE",
+    "WORSE_ACCEPTANCES",
+    "split_vector_hz",
+    "untrusted_step",
+    "worse_than_measured",
+]
+
+#: An answer whose own model predicts at its DAC code more than this many times the least split
+#: a verification of the run measured (and more than :data:`WORSE_ACCEPTANCES` acceptances) is
+#: not applied: the run goes back to that verification's bias (:func:`worse_than_measured`).
+WORSE = 2.0
+#: ... and more than this many acceptances.
+WORSE_ACCEPTANCES = 10.0
+#: An answer further from a near verified bias than this many times the linearised step is not
+#: the local correction (its curvature term would be as large as the step itself).
+BEYOND_LINEAR = 2.0
+
+
+def worse_than_measured(
+    result: TuningResult,
+    criterion_name: str,
+    least_measured: tuple[float, np.ndarray] | None,
+    acceptance_hz: float | None,
+) -> tuple[float, np.ndarray] | None:
+    """The least measured split and its bias if ``result`` is predicted worse, else None.
+
+    Degenerate modes only (see the module). Measured: random gyro 116 in the lab, whose
+    anchored quadratic model sent its seventh answer to B2 = -9.5 V, 4.7 V beyond any sweep,
+    predicting 17.8 Hz at the code after a verification had measured 9.7 mHz; the run ended
+    255 mHz apart.
+    """
+    if criterion_name != "degenerate" or least_measured is None or acceptance_hz is None:
+        return None
+    measured, where = least_measured
+    predicted = float(result.split_hz)
+    if predicted > max(WORSE * measured, WORSE_ACCEPTANCES * acceptance_hz):
+        return measured, np.asarray(where, dtype=float)
+    return None
+
+
+def split_vector_hz(model: FittedModel, bias: np.ndarray) -> np.ndarray:
+    """The model's split vector (Hz) at ``bias`` (its electrodes): length the split.
+
+    The traceless part ``d`` of ``M^{-1/2} K M^{-1/2}`` (eigenvalues ``t ± |d|``), as
+    ``d / (2π √t)``.
+    """
+    ns = normalised_stiffness(
+        np.asarray(model.M, dtype=float)[None], np.asarray(model.stiffness(bias), dtype=float)[None]
+    )
+    t, d = trace_deviation(ns[0])
+    return np.asarray(d, dtype=float) / (2 * np.pi * np.sqrt(max(float(t), 1e-300)))
+
+
+def untrusted_step(
+    model: FittedModel,
+    answer: np.ndarray,
+    latest: tuple[float, np.ndarray] | None,
+    tuned: list[int],
+    acceptance_hz: float,
+    bias_step: float,
+    near_acceptances: float,
+) -> np.ndarray | None:
+    """The linearised step's bias (every electrode), if ``answer`` goes beyond it; else None.
+
+    Parameters
+    ----------
+    model : FittedModel
+        The answer's model (its electrodes are ``tuned``).
+    answer : ndarray
+        The answer's bias, every electrode.
+    latest : (float, ndarray) or None
+        The latest verification's measured split (Hz) and its bias (every electrode).
+    tuned : list of int
+        The positions of the model's electrodes among all.
+    acceptance_hz, bias_step, near_acceptances : float
+        The acceptance, the local design's step (V) and how many acceptances count as near.
+    """
+    if latest is None or not latest[0] <= near_acceptances * acceptance_hz:
+        return None
+    where = np.asarray(latest[1], dtype=float)
+    b0 = where[tuned]
+    jump = float(np.max(np.abs(np.asarray(answer, dtype=float)[tuned] - b0)))
+    if jump <= bias_step:
+        return None
+    h = 1e-3 * bias_step
+    s0 = split_vector_hz(model, b0)
+    jac = np.empty((2, b0.size))
+    for k in range(b0.size):
+        e = np.zeros(b0.size)
+        e[k] = h
+        jac[:, k] = (split_vector_hz(model, b0 + e) - split_vector_hz(model, b0 - e)) / (2 * h)
+    step = -np.linalg.lstsq(jac, s0, rcond=None)[0]
+    if not np.all(np.isfinite(step)) or jump <= BEYOND_LINEAR * float(np.max(np.abs(step))):
+        return None
+    # no further than the local design reached
+    step *= min(1.0, bias_step / max(float(np.max(np.abs(step))), 1e-300))
+    out = where.copy()
+    out[tuned] = b0 + step
+    return out
