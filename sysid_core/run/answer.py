@@ -22,6 +22,7 @@ from sysid_core.errors import UnreachableTuningError
 from sysid_core.identification.drift import drift_modelled
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.dac import best_code
+from sysid_core.run.tracking import NEAR_ACCEPTANCES
 from sysid_core.run.trust import untrusted_step, worse_than_measured
 from sysid_core.tuning.confidence import confidence_region
 from sysid_core.tuning.criteria import (
@@ -89,7 +90,8 @@ def answer(
     acceptance_hz: float | None = None,
     least_measured: tuple[float, np.ndarray] | None = None,
     latest_measured: tuple[float, np.ndarray] | None = None,
-    near_acceptances: float = 10.0,
+    near_acceptances: float = NEAR_ACCEPTANCES,
+    local_step: float | None = None,
 ) -> Answer:
     """The answer of iteration ``it`` (see the module).
 
@@ -100,7 +102,8 @@ def answer(
     ``acceptance_hz``, an answer whose DAC code leaves a sizeable share of it is said
     (:func:`dac_floor`). An answer the run's measurements do not support is not applied
     (:mod:`sysid_core.run.trust`): the run goes back to the least measured split's bias, or
-    takes the linearised step from the latest verified bias (``latest_measured``).
+    takes the linearised step from the latest verified bias (``latest_measured``), no longer
+    than the local design's step (``local_step``, else ``bias_step``).
     """
     try:
         result, local = solve_criterion(criterion, model, space)
@@ -155,7 +158,7 @@ def answer(
             latest_measured,
             space.index,
             acceptance_hz,
-            bias_step,
+            bias_step if local_step is None else local_step,
             near_acceptances,
         )
     )

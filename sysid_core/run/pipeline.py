@@ -5,11 +5,10 @@
    (the paper's full sweeps, or the lean protocol's points where the modes are), and one
    bias-dependent model fitted to them.
 2. Answer (:mod:`sysid_core.run.answer`): the criterion's bias, the DAC code the model predicts
-   best, and its confidence region. If the criterion finds its goal unreachable inside the
-   limits, the run ends with :class:`~sysid_core.errors.UnreachableTuningError`, unless
-   iterations remain and the best reachable bias is more than ``bias_step`` away (the model
-   extrapolated): then the run continues from that bias and a model identified around it
-   decides.
+   best, and its confidence region, where the run's measurements support it
+   (:mod:`sysid_core.run.trust`). A goal unreachable inside the limits ends the run with
+   :class:`~sysid_core.errors.UnreachableTuningError`, unless iterations remain and the best
+   reachable bias is more than ``bias_step`` away: a model identified there decides.
 3. Verify at the new bias (:mod:`sysid_core.run.verification`): a split counts as measured only
    when the evidence says both modes are in a window that resolves them.
 4. Report (:mod:`sysid_core.run.summary`): the iteration's record, ``summary.json`` and plots.
@@ -350,6 +349,7 @@ class TuningRun:
             self.bench.device,
             it,
             bias_step=self.config.experiment.bias_step,
+            local_step=self.config.experiment.refine_bias_step or self.config.experiment.bias_step,
             last_iteration=self.clock.left() < 2,
             say=self.say,
             every_sweep=every_sweep,
