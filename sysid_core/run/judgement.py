@@ -10,8 +10,10 @@ the criterion's (:func:`honest_goals`):
   bandwidths are a thousand times the acceptance, one window cannot tell 1 mHz from 10 mHz
   (measured on random gyros at 18 kHz: 1.3 mHz measured, 9.4 mHz true, interval 0-21 mHz); the
   run then goes on instead of claiming convergence.
-* ``split at the end (drift)`` <= acceptance: when the fit modelled a stiffness trend in time
-  (``[model] drift`` with ``trend``), the measured split plus what the split's drift can add
+* ``split at the end (drift)`` <= acceptance: when the model carries a stiffness trend in time
+  (a tracked run's moved model: the split's rate its windows estimate,
+  :func:`sysid_core.run.own_splits.with_split_rate`; or ``[model] drift = "trend"``), the
+  measured split plus what the split's drift can add
   between the middle of the window and its end (the run's end). :func:`holds_s` says how long
   the tuning stays under the acceptance at that rate. When that drift alone, over the half
   window, moves the split by the acceptance or more and every other goal is met, no later
@@ -148,12 +150,16 @@ def outpaced(
     if moves < acceptance_hz:
         return None
     held = holds_s(split_hz, acceptance_hz, moves / half_s) if half_s > 0 else None
-    holds = "" if held is None else f"; at that rate it holds about {held / 60:.2g} min"
+    holds = (
+        ""
+        if held is None
+        else f"; it moves {moves / half_s * 6e4:.3g} mHz/min and holds about {held / 60:.2g} min"
+    )
     return (
-        f"the split drifts {moves * 1e3:.3g} mHz in half a verification window, more than the "
-        f"acceptance {acceptance_hz * 1e3:.3g} mHz: no verification on this bench can show it "
-        f"holding, so the run stops at this bias (measured split {split_hz * 1e3:.3g} mHz"
-        f"{holds})"
+        f"the drift outruns the verification: the split drifts {moves * 1e3:.3g} mHz in half a "
+        f"window, more than the acceptance {acceptance_hz * 1e3:.3g} mHz, so no verification on "
+        f"this bench can show it holding; the run stops at this bias (measured split "
+        f"{split_hz * 1e3:.3g} mHz{holds})"
     )
 
 

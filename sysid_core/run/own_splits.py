@@ -12,6 +12,7 @@ the split the answer is solved for. :class:`sysid_core.run.tracking.Tracker` app
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -81,6 +82,24 @@ def windows_forecast(
         anchored_variances=anchored_var,
     )
     return _offset_to(base, moved, found.vector_hz, scale), found
+
+
+def with_split_rate(moved: FittedModel, found: SplitForecast, span_s: float) -> FittedModel:
+    """``moved`` whose stiffness trend (``meta["drift_trend"]``) has the forecast's split rate.
+
+    The trend's common part (the anchor's, if any) stays; its traceless part, the split's rate,
+    becomes the filter's (``found.rate_hz_per_s``, Hz/s in the frame of ``moved``'s mean
+    frequency), so that every reader of the moved model's trend (the verdict's drift goal, the
+    reports) sees the one estimate. ``span_s``: the time the windows span.
+    """
+    root, inv_root = mass_roots(moved.M)
+    trend = moved.meta.get("drift_trend")
+    a = np.zeros((2, 2)) if trend is None else inv_root @ np.asarray(trend, float) @ inv_root
+    common = 0.25 * np.trace(a + a.T) * np.eye(2)
+    r = np.asarray(found.rate_hz_per_s, dtype=float) * moved.omega_center * 2 * np.pi
+    rate = root @ (common + np.array([[r[0], r[1]], [r[1], -r[0]]])) @ root
+    meta = dict(moved.meta, drift_trend=rate.tolist(), drift_trend_span_s=float(span_s))
+    return dataclasses.replace(moved, meta=meta)
 
 
 #: A variance of zero (a fit without residuals) stands for this: a hundredth of a mHz, squared.

@@ -38,7 +38,7 @@ from sysid_core.model.fitted import FittedModel
 from sysid_core.run.clock import stamps
 from sysid_core.run.driftpolicy import DriftPolicy
 from sysid_core.run.evidence import WindowAssessment
-from sysid_core.run.own_splits import windows_forecast
+from sysid_core.run.own_splits import windows_forecast, with_split_rate
 from sysid_core.run.verification import Verification
 
 __all__ = ["NEAR_ACCEPTANCES", "SAMPLED_WITHIN", "Tracker", "blind"]
@@ -225,12 +225,9 @@ class Tracker:
         if chosen_own:
             offset, self.forecast = windows_forecast(model, moved, chosen_own, at)
             moved = dataclasses.replace(moved, K0=np.asarray(moved.K0) + offset)
-        seen = offset_drift(moved)
-        if seen is not None and self.forecast is not None:
-            # the split's rate is the filter's (the anchor's is only the windows it holds)
-            rate = float(np.hypot(*self.forecast.rate_hz_per_s)) * 3600.0
-            seen = dataclasses.replace(seen, split_hz_per_h=rate)
-        self.rates = seen
+            span = np.concatenate([stamps(w) for w, _ in chosen_own])
+            moved = with_split_rate(moved, self.forecast, float(np.ptp(span)))
+        self.rates = seen = offset_drift(moved)
         rates = "" if seen is None else f"; drift {seen.common_hz_per_h * 1e3:+.4g} mHz/h common"
         own = (
             ""

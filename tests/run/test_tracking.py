@@ -299,7 +299,8 @@ def test_the_windows_carry_a_charging_split_ahead() -> None:
     nearer than the latest window's own split, 10 minutes stale; on a
     bench that does not charge it stays where the windows are (no slope made up)."""
     from sysid_core.identification.anchor import anchor
-    from sysid_core.run.own_splits import windows_forecast
+    from sysid_core.identification.drift import offset_drift
+    from sysid_core.run.own_splits import windows_forecast, with_split_rate
 
     bias = np.array([2.0, 4.4, 0.0])
     gyro, model, pairs = _charging_windows(0.05)
@@ -317,6 +318,14 @@ def test_the_windows_carry_a_charging_split_ahead() -> None:
     # measured: 0.19 mHz from the truth, the stale window 9.1 (the stated band, 0.04 mHz, is
     # the 80 dB noise's: a split of 105 mHz does not move on a straight line)
     assert abs(ahead.split_hz(applied) - truth) < 0.2 * abs(stale - truth)
+    # the moved model's trend carries the filter's split rate, and its common rate stays
+    trended = with_split_rate(ahead, forecast, 2400.0)
+    seen, before = offset_drift(trended), offset_drift(ahead)
+    assert seen is not None and before is not None
+    assert seen.split_hz_per_h == pytest.approx(np.hypot(*forecast.rate_hz_per_s) * 3600, rel=1e-3)
+    assert seen.common_hz_per_h == pytest.approx(before.common_hz_per_h, rel=1e-6, abs=1e-9)
+    # about 9 mHz in 10 minutes: 54 mHz/h
+    assert 30e-3 < seen.split_hz_per_h < 80e-3
     gyro, model, pairs = _charging_windows(0.0)
     at = gyro.time_s + 600.0
     moved = anchor(model, [w for w, _ in pairs[-4:]]).model_at(model, at)
