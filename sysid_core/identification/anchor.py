@@ -259,7 +259,7 @@ def split_offset(model: FittedModel, sweep: xr.Dataset, window: FittedModel) -> 
     window's: its orientation, and the length that gives the window's split in Hz at
     ``model``'s own ``t``; the mean frequency stays. :func:`anchor` holds the model's mass,
     damping and polynomial fixed, and what those miss near degenerate modes it can take for a
-    split: measured on random gyro 124 (14.5 kHz, bandwidths 0.27 Hz), five windows' own fits
+    split: measured on a 14.5 kHz gyro with bandwidths of 0.27 Hz, five windows' own fits
     agreed on ``d`` to 0.5 mHz (splits 3.8-5.0 mHz, as true) while the anchored model put
     0.3 mHz there.
     """

@@ -63,9 +63,9 @@ LAW_CONDITION_LIMIT = 1e10
 #: linear law (``linear_trend``). Its answers follow the charging, so its biases move with time
 #: and quadratic terms take up what the trend leaves of the drift: measured on slow random gyros
 #: in the uncontrolled lab (docs/drift.md, "Long runs"), the quadratic fits' Wald statistic
-#: rose over a run (gyro 116: 6.5 to 58-94 against 13.3) while their slopes of the split in B1
-#: and B2 left the truth's (116: 50 % off; 512, draw 1: a sign turned, and its answers ran away
-#: to a 50 mHz split). An explicit ``drift = "trend"`` carries the trend from the second
+#: rose over a run (6.5 to 58-94 against 13.3 on a 1.8 kHz gyro) while their slopes of the
+#: split in B1 and B2 left the truth's (50 % off; on another a sign turned, and its answers ran
+#: away to a 50 mHz split). An explicit ``drift = "trend"`` carries the trend from the second
 #: iteration on, where the quadratic law is still needed: it keeps the test.
 TREND_LAW = "the fit carries the trend: linear law, the quadratic terms would take up drift"
 

@@ -47,8 +47,8 @@ def law_statistic(model: FittedModel, split_only: bool = True) -> tuple[float, i
     sweeps of a design, and a test of all three entries took that drift for a quadratic law
     (the cloverleaf, whose law is ``v²``, at a good lab's drift: 15 of 24 starts). Without it
     (a frozen bench, where nothing moves between sweeps), ``d`` is every entry (11, 12, 22) of
-    every ``L_p``, and the common part is evidence too (random gyro 119: 9.3 for the split part
-    alone at its first fit, under the threshold of 13.3, where its law is quadratic). ``None``
+    every ``L_p``, and the common part is evidence too (a quadratic law can show in the common
+    part first: 9.3 for the split part alone, under the threshold of 13.3, measured). ``None``
     without ``L_p`` or without a covariance (minimax).
     """
     if model.Lp is None or model.stiffness_factor is None or not len(model.electrodes):

@@ -190,7 +190,7 @@ def dac_floor(info: Mapping[str, Any], acceptance_hz: float | None) -> float | N
     ``info``: the answer's ``TuningResult.info`` (or its ``tuning.json``). The DAC limits it
     when the answer was moved to a DAC code (``"dac_code"``), its goal was reachable, and the
     code leaves at least :data:`DAC_FLOOR_SHARE` of ``acceptance_hz``: the codes around the
-    answer are too coarse for the acceptance (random gyro 205, 22 kHz, 16 bits: 0.70 mHz
+    answer are too coarse for the acceptance (a 22 kHz gyro, 16 bits: 0.70 mHz
     predicted at the best code, 1.1-1.3 mHz measured, acceptance 1 mHz).
     """
     code = info.get("dac_code")
@@ -274,9 +274,9 @@ def best_effort(
     A verification that measured a split under half the best one the model can reach
     (``least_measured``: the least split and its bias; degenerate modes only) refutes the
     verdict whatever the model: the run continues from that verification's bias, or at the
-    last iteration stays where it is and ends unconverged (measured: random gyro 523 in the
-    lab, whose local model at its eighth iteration found 56.9 mHz the best reachable split
-    after a verification had measured 3.7 mHz).
+    last iteration stays where it is and ends unconverged (a local model fitted hours after a
+    verification on a drifting bench can find 56.9 mHz the best reachable split where that
+    verification measured 3.7 mHz).
     """
     refuted = (
         criterion_name == "degenerate"

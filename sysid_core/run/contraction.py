@@ -4,10 +4,10 @@ A model that describes the gyro brings the split down by orders of magnitude per
 (the cloverleaf: 2-170 mHz after the first answer, under 1 mHz after the second). A model whose
 bias law holds only roughly (a law off by a third, a law fitted far from the answer) brings it
 down by a constant factor, 3-10 per iteration, while each new verification, fitted with the
-rest, still agrees with it: random gyro 108 in a good lab went 2643, 249, 43 and 19 mHz in four
-iterations, where the local design measured after the third reached 0.7 mHz. :func:`too_slow`
-says when the rate seen in the last two verifications would leave the split over the
-acceptance after the iterations left; the run then measures the local design
+rest, still agrees with it: a gyro with input dynamics in a good lab went 2643, 249, 43 and
+19 mHz in four iterations, where the local design measured after the third reached 0.7 mHz.
+:func:`too_slow` says when the rate seen in the last two verifications would leave the split
+over the acceptance after the iterations left; the run then measures the local design
 (:class:`~sysid_core.run.protocols.LeanProtocol`, and a run from a previous model,
 :class:`~sysid_core.run.previous.PreviousModel`).
 """

@@ -5,7 +5,7 @@ fits its sweeps with the stiffness trend of ``drift = "trend"`` (a stiffness cha
 in time, :mod:`sysid_core.identification.drift`) once they span more than
 :data:`TREND_SPAN_S`. A slow gyro's run (1-4 kHz in the uncontrolled lab of docs/drift.md:
 windows of 5-50 minutes, runs of hours) otherwise fits hours of charging as if the bias had
-done it: random gyro 323 (2.6 kHz) saw its quadratic terms grow threefold over ten iterations
+done it: a 2.6 kHz gyro saw its quadratic terms grow threefold over ten iterations
 while its windows sat within 0.1 V, the 95 % region of its answers along B1 widen from ±0.04 V
 to ±0.7 V, and its 16th answer move B1 by 1.3 V to an 815 mHz split. Over a shorter span the
 tracker's anchors follow the drift, and a trend fitted on minutes competes with the bias law

@@ -18,8 +18,8 @@ the criterion's (:func:`honest_goals`):
   the tuning stays under the acceptance at that rate. When that drift alone, over the half
   window, moves the split by the acceptance or more and every other goal is met, no later
   verification on this bench can meet the goal: the run stops there, not converged
-  (:func:`outpaced`; lab random gyro 319, 2.1 kHz: measured 0.30 mHz, drift term 2.17 mHz, and
-  the four iterations it went on drifted it to 8.1 mHz).
+  (:func:`outpaced`; a 2.1 kHz gyro in the uncontrolled lab: measured 0.30 mHz, drift term
+  2.17 mHz, and the four iterations it went on drifted it to 8.1 mHz).
 
 A third applies on a drifting bench: ``split, aiming at X of the acceptance`` <= ``aim`` ×
 acceptance (:func:`aim_fraction`; ``[tuning] aim``, by default :data:`DRIFTING_AIM` when the run
@@ -32,8 +32,8 @@ matters (docs/drift.md).
 A fourth joins them when all are met (:func:`twin_goal`): the structure on the other side
 (``sen`` for ``act`` and back) fits the converging window. If it fits it
 :data:`TWIN_FACTOR` times better, the configured structure misses the gyro's dynamics, and its
-split is biased beyond the noise's interval (measured: random gyro 108, which has input
-dynamics, fitted with ``act`` in a quiet bench: measured 1.96 mHz, upper bound 3.3 mHz, true
+split is biased beyond the noise's interval (measured: a gyro with input dynamics, fitted
+with ``act`` in a quiet bench: measured 1.96 mHz, upper bound 3.3 mHz, true
 split 10.4 mHz; ``sen`` fits that window 16 times better and measures 12.7 mHz); the run then
 counts the twin's split, ``split by the sen structure``, against the bound's limit. Both
 structures are fitted plainly (not refitted with weights) so that their residuals compare.

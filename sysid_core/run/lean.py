@@ -317,7 +317,7 @@ def motion_allowance(frequency_hz: float, times_s: np.ndarray | None, settle_s: 
     as long again (Hz); 0 for a sweep without time stamps (a bench without a clock). A 1.5 kHz
     gyro of Q 55 000 moves by about a bandwidth in the ten minutes an 18-point window takes in
     an uncontrolled lab: a window of ``±2`` bandwidths around the modes found just before
-    then misses one of them (random gyro 112).
+    then misses one of them.
     """
     if times_s is None or np.size(times_s) == 0:
         return 0.0
@@ -338,8 +338,8 @@ def recentred(
     ``moved_hz`` from that sweep's bias to the answer's, uncertain by
     :data:`PREDICTION_ERROR` of the move, the motion a clock's drift allows over ``age_s``
     (:data:`MOTION_PPM_PER_H`) and half the largest split of the answer's region. A fit of
-    hours of drifting data knows the modes' mean no better than the drift moved it (random
-    gyro 116, 1.8 kHz: ±2 Hz, against bandwidths of 0.025 Hz), while the design measured just
+    hours of drifting data knows the modes' mean no better than the drift moved it (on a 1.8
+    kHz gyro: ±2 Hz, against bandwidths of 0.025 Hz), while the design measured just
     before knows it to a bandwidth.
     """
     sigma = predicted_uncertainty(predicted)

@@ -225,7 +225,7 @@ class LeanProtocol(Protocol):
         """Every sweep so far, if the run fits only the sweeps near ``bias`` (and there are more).
 
         A local fit that finds the goal unreachable extrapolates from a few tenths of a volt;
-        the sweeps of the whole run may span the answer (random gyro 119 at 60 dB).
+        the sweeps of the whole run may span the answer.
         """
         if not self.local or self.previous is not None:
             return None

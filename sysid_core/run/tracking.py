@@ -99,10 +99,9 @@ class Tracker:
         A verification whose modes only a whole-band sweep found (``"located"``) refutes the
         windows the model was anchored on: it placed the verification's window where the
         modes were not. They are dropped, and the next answer comes from the fit of the
-        sweeps, which holds the band sweep, until a window verifies again (random gyro 119
-        in the lab, draw 1: anchored on its first window, 5.6 Hz apart at another bias, six
-        answers in a row predicted under 2 mHz where band sweeps located the modes 10-13 Hz
-        apart, and the run ended 10 Hz apart).
+        sweeps, which holds the band sweep, until a window verifies again (a model anchored on
+        a window 5.6 Hz apart at another bias predicted six answers in a row under 2 mHz
+        where band sweeps located the modes 10-13 Hz apart).
         """
         t = stamps(ver.sweep)
         if ver.verified and ver.split_hz is not None and t.size == ver.sweep["frequency"].size:
@@ -257,12 +256,11 @@ def blind(sweep: xr.Dataset, evidence: WindowAssessment) -> bool:
     """Whether a fitted mode lies over :data:`SAMPLED_WITHIN` bandwidths from every point.
 
     A window that stood too coarse (its split far over the acceptance) may have one of two
-    modes between its points: random gyro 119 (25.8 kHz, quiet bench, noise draw 1), whose first
-    answer's window held one of two modes 16 Hz apart with a step of 2.3-2.6 Hz; its fit added a
-    mode 4.6 Hz away, 6.7 of its bandwidths from the nearest point. A window that resolves its
-    modes has a point within half a bandwidth of each; on random gyro 523 (1.0 kHz) a window
-    that stood with a step of 0.09 Hz had a point within 1.7 bandwidths of each mode, and its
-    split (36 mHz) was right.
+    modes between its points: a window with a step of 2.3-2.6 Hz held one of two modes 16 Hz
+    apart (a 25.8 kHz gyro), and its fit added a mode 4.6 Hz away, 6.7 of its bandwidths from
+    the nearest point. A window that resolves its modes has a point within half a bandwidth of
+    each; on a 1.0 kHz gyro a window that stood with a step of 0.09 Hz had a point within 1.7
+    bandwidths of each mode, and its split (36 mHz) was right.
     """
     f = np.asarray(sweep["frequency"].values, dtype=float)
     modes = np.asarray(evidence.frequencies_hz, dtype=float)

@@ -54,10 +54,8 @@ def worse_than_measured(
 ) -> tuple[float, np.ndarray] | None:
     """The least measured split and its bias if ``result`` is predicted worse, else None.
 
-    Degenerate modes only (see the module). Measured: random gyro 116 in the lab, whose
-    anchored quadratic model sent its seventh answer to B2 = -9.5 V, 4.7 V beyond any sweep,
-    predicting 17.8 Hz at the code after a verification had measured 9.7 mHz; the run ended
-    255 mHz apart.
+    Degenerate modes only (see the module). An anchored quadratic law can send an answer
+    4.7 V beyond any sweep and predict 17.8 Hz there after a verification measured 9.7 mHz.
     """
     if criterion_name != "degenerate" or least_measured is None or acceptance_hz is None:
         return None

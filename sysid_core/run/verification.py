@@ -116,8 +116,8 @@ def modes_at(model: FittedModel, w: np.ndarray) -> ModalReport | None:
     """The model's modes at the tuned biases ``w``, or None where none of them oscillates.
 
     A model extrapolated far from its sweeps can answer at a bias where its stiffness is not
-    positive definite (random gyro 112 at 60 dB, whose fits never saw both modes: predicted
-    modes of 0 and 1436 Hz); the band then has to find the modes (:func:`verify`).
+    positive definite (a fit that never saw both modes at 60 dB predicted modes of 0 and
+    1436 Hz); the band then has to find the modes (:func:`verify`).
     """
     try:
         return model.modal(w)

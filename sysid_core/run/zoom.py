@@ -1,8 +1,8 @@
 """Windows around the modes that a failed whole-band sweep placed roughly.
 
 A lean run locates the modes with one whole-band sweep of at most ``locate_points`` points.
-Narrow modes sit between its points: random gyro 112 (1.49 kHz, bandwidths 0.045 and 0.075
-Hz, 60 dB SNR) on a 100 Hz band has a point every 1.66 Hz, 37 bandwidths. The sweep's fit
+Narrow modes sit between its points: a 1.49 kHz gyro (bandwidths 0.045 and 0.075 Hz,
+60 dB SNR) on a 100 Hz band has a point every 1.66 Hz, 37 bandwidths. The sweep's fit
 then fails the evidence (relative response error 1.0, limit 0.35), although its modes are
 within half a step of the truth (1485.95 and 1490.25 Hz; true 1485.99 and 1490.74), and the
 band swept four times as densely (200 points there) failed too (0.8): an equation-error fit of
