@@ -5,8 +5,9 @@ Lives here: the configuration file (:mod:`.config`; ``[model] drift`` parsed:
 (:mod:`.components`), experiment designs and sweep grids (:mod:`.sweeps`), the lean protocol
 (:mod:`.lean`, :mod:`.knowledge`; from a previous model: :mod:`.previous`), the evidence that
 a sweep shows both modes (:mod:`.evidence`), verification (:mod:`.verification`) and what it
-can claim (:mod:`.judgement`), DAC codes (:mod:`.dac`), bench time (:mod:`.benchtime`), the
-run's clock and its bench-time budget (:mod:`.clock`, :mod:`.budget`), the summary
+can claim (:mod:`.judgement`), whether an answer may be applied (:mod:`.trust`), the gyro in
+time (:mod:`.tracking`, :mod:`.own_splits`), DAC codes (:mod:`.dac`), bench time
+(:mod:`.benchtime`), the run's clock and its bench-time budget (:mod:`.clock`, :mod:`.budget`), the summary
 (:mod:`.summary`), the plots (:mod:`.plots`; the split over the bench clock: :mod:`.timeline`)
 and the loop (:mod:`.pipeline`).
 
