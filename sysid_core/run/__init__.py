@@ -8,8 +8,8 @@ a sweep shows both modes (:mod:`.evidence`), verification (:mod:`.verification`)
 can claim (:mod:`.judgement`), whether an answer may be applied (:mod:`.trust`), the gyro in
 time (:mod:`.tracking`, :mod:`.own_splits`), DAC codes (:mod:`.dac`), bench time
 (:mod:`.benchtime`), the run's clock and its bench-time budget (:mod:`.clock`,
-:mod:`.budget`), the summary (:mod:`.summary`), the plots (:mod:`.plots`; the split over the bench clock: :mod:`.timeline`)
-and the loop (:mod:`.pipeline`).
+:mod:`.budget`), the summary (:mod:`.summary`), the plots (:mod:`.plots`; the split over the
+bench clock: :mod:`.timeline`) and the loop (:mod:`.pipeline`).
 
 May import: everything below it (errors, data, conic, model, identification, tuning, device,
 plugin).
