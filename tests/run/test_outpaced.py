@@ -31,7 +31,7 @@ def _goals(split: float, drift_term: float, others_met: bool = True) -> list[Goa
 
 def test_a_drift_of_the_acceptance_in_half_a_window_stops_the_run() -> None:
     why = outpaced(_goals(0.0003, 0.00217), 0.0003, ACCEPTANCE, half_s=210.0)
-    assert why is not None and "2.17 mHz in half a verification window" in why
+    assert why is not None and "2.17 mHz in half a window" in why and "mHz/min" in why
     # 1.7 mHz of room at 2.17 mHz per 210 s: 164 s
     assert "holds about 2.7 min" in why
 
