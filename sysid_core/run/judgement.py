@@ -45,6 +45,7 @@ from sysid_core.identification.drift import offset_drift
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.clock import stamps_span_s
 from sysid_core.run.fitter import Fitter
+from sysid_core.run.tracking import Tracker
 from sysid_core.run.verification import Verification
 from sysid_core.tuning.confidence import split_interval
 from sysid_core.tuning.criteria import Goal, TuningCriterion
@@ -52,6 +53,7 @@ from sysid_core.tuning.criteria import Goal, TuningCriterion
 __all__ = [
     "DRIFTING_AIM",
     "DRIFT_GOAL",
+    "END_GOAL",
     "RESOLVE_FACTOR",
     "TWIN_FACTOR",
     "aim_fraction",
@@ -111,21 +113,37 @@ def aim_fraction(configured: float | None, tracking: bool) -> float:
     return DRIFTING_AIM if tracking else 1.0
 
 
+#: The goal of a tracked run: the split at the end, by the windows' forecast, at 95 %.
+END_GOAL = "split at the end, 95 % by the windows' forecast"
+
+
 def honest_goals(
-    ver: Verification, model: FittedModel, acceptance_hz: float, aim: float = 1.0
+    ver: Verification,
+    model: FittedModel,
+    acceptance_hz: float,
+    aim: float = 1.0,
+    end: tuple[float, float] | None = None,
 ) -> list[Goal]:
     """The goals that keep a verified split honest (see the module); [] if not verified.
 
     ``aim`` (:func:`aim_fraction`) below 1 adds the split's goal at ``aim × acceptance_hz``.
+    ``end``: the 95 % bound and mean of the split at the end of the window by the tracked
+    windows' forecast (:meth:`~sysid_core.run.tracking.Tracker.end_split`); with it, one goal,
+    that bound under the acceptance, stands for the aim and the window's own bound.
     """
     if not ver.verified or ver.split_hz is None:
         return []
     goals = []
+    if end is not None:
+        goals.append(Goal(END_GOAL, end[0], acceptance_hz))
+        aim, end_only = 1.0, True
+    else:
+        end_only = False
     if aim < 1.0:
         goals.append(
             Goal(f"split, aiming at {aim:g} of the acceptance", ver.split_hz, aim * acceptance_hz)
         )
-    interval = split_interval(ver.model)
+    interval = None if end_only else split_interval(ver.model)
     if interval is not None:
         goals.append(Goal("split 95 % upper bound", interval[1], RESOLVE_FACTOR * acceptance_hz))
     rate = split_rate_hz_per_s(model)
@@ -144,7 +162,8 @@ def outpaced(
     seconds, when known, say how long the split stays under the acceptance).
     """
     drift = next((g for g in goals if g.name == DRIFT_GOAL), None)
-    if drift is None or drift.met or any(not g.met for g in goals if g is not drift):
+    others = [g for g in goals if g is not drift and g.name != END_GOAL]  # END holds the drift
+    if drift is None or drift.met or any(not g.met for g in others):
         return None
     moves = drift.value_hz - split_hz
     if moves < acceptance_hz:
@@ -170,16 +189,19 @@ def verdict(
     fitter: Fitter,
     acceptance_hz: float,
     aim: float = 1.0,
+    tracker: Tracker | None = None,
 ) -> tuple[list[Goal], bool, str | None]:
     """A verification's goals, whether the run converged, and why it stops unconverged (or None).
 
-    The criterion's goals and :func:`honest_goals` for ``model``, the iteration's; if they are
-    all met, the :func:`twin_goal` too; if only the drift's is not, :func:`outpaced`.
+    The criterion's goals and :func:`honest_goals` for ``model``, the iteration's (with the
+    ``tracker``'s forecast of the split at the window's end, when it has one); if they are all
+    met, the :func:`twin_goal` too; if only the drift's is not, :func:`outpaced`.
     """
     if not ver.verified or ver.frequencies_hz is None or ver.split_hz is None:
         return [], False, None
     goals = criterion.goals(ver.frequencies_hz, acceptance_hz)
-    goals += honest_goals(ver, model, acceptance_hz, aim)
+    end = None if tracker is None else tracker.end_split(model, ver.sweep)
+    goals += honest_goals(ver, model, acceptance_hz, aim, end)
     converged = all(g.met for g in goals)
     if converged and (twin := twin_goal(ver, fitter, acceptance_hz)):
         goals.append(twin)

@@ -239,7 +239,7 @@ class TuningRun:
             if self.tracking and self.tracker is not None:
                 self.tracker.learned(ver)
             goals, converged, stop = verdict(
-                ver, now, self.criterion, self.fitter, cfg.acceptance_hz, aim
+                ver, now, self.criterion, self.fitter, cfg.acceptance_hz, aim, self.tracker
             )
             if stop is not None:
                 self.notes.append(f"iteration {it}: {stop}")

@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 import xarray as xr
+from scipy.stats import rice
 
 from sysid_core.data.schema import requested_bias
 from sysid_core.identification.anchor import anchor
@@ -39,6 +40,7 @@ from sysid_core.run.clock import stamps
 from sysid_core.run.driftpolicy import DriftPolicy
 from sysid_core.run.evidence import WindowAssessment
 from sysid_core.run.own_splits import windows_forecast, with_split_rate
+from sysid_core.run.trust import split_vector_hz
 from sysid_core.run.verification import Verification
 
 __all__ = ["NEAR_ACCEPTANCES", "SAMPLED_WITHIN", "Tracker", "blind"]
@@ -245,6 +247,34 @@ class Tracker:
             f"{at - found.t_ref:.0f} s ahead{rates}{own}"
         )
         return moved
+
+    def end_split(self, model: FittedModel, sweep: xr.Dataset) -> tuple[float, float] | None:
+        """The split at the end of the latest window by the windows' forecast, or None.
+
+        Its 95 % upper bound and its mean (Hz): the model anchored on the latest window gives
+        the split vector at that window's bias, the windows' filter what it misses there at the
+        window's last time stamp, with its variance; the bound is the Rice distribution's 95 %
+        point. None unless ``sweep`` is the latest window kept and gives a split of its own.
+        """
+        if not self.windows or self.windows[-1] is not sweep or self.blind[-1]:
+            return None
+        latest = self.windows[-1]
+        near = [
+            (w, own)
+            for w, own, s, unseen in zip(
+                self.windows, self.models, self.splits, self.blind, strict=True
+            )
+            if s <= self.near_hz and not unseen
+        ]
+        chosen = near if near and near[-1][0] is latest else [(latest, self.models[-1])]
+        end = float(stamps(latest).max())
+        base = anchor(model, [latest], rate=False).model_at(model, end)
+        _, found = windows_forecast(model, base, chosen, end)
+        bias = np.asarray(latest.sel(electrode=list(model.electrodes))["bias"].values[0])
+        mean = float(np.hypot(*(split_vector_hz(base, bias) + found.vector_hz)))
+        sigma = found.sigma_hz
+        bound = float(rice.ppf(0.95, mean / sigma, scale=sigma)) if sigma > 0 else mean
+        return bound, mean
 
 
 #: A fitted mode is measured by a window only if one of its points lies within this many of the
