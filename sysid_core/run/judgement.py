@@ -1,8 +1,16 @@
 """What a verification can claim: a split it resolves, and one the drift leaves alone.
 
 A verification measures the split with one window; the split counts as under the acceptance only
-when the measurement can tell, and only as long as the drift leaves it there. Two goals join
-the criterion's (:func:`honest_goals`):
+when the measurement can tell, and only as long as the drift leaves it there.
+
+On a tracked run (a bench with a clock) one goal says so (:data:`END_GOAL`): the split at the
+end of the latest window, as the windows' filter predicts it
+(:meth:`~sysid_core.run.tracking.Tracker.end_split`, docs/drift-model.md), is under the
+acceptance (times ``[tuning] aim`` if set) at 95 %: the Rice distribution's 95 % point of the
+predicted vector's length. It holds the window's noise, what the model misses and the drift
+from the window's middle to its end. Without that forecast (no clock, or a latest window that
+gives no split of its own) two goals stand for it, and join the criterion's
+(:func:`honest_goals`):
 
 * ``split 95 % upper bound`` <= :data:`RESOLVE_FACTOR` × acceptance: the upper end of the
   split's 95 % interval from the window's fit
@@ -21,9 +29,9 @@ the criterion's (:func:`honest_goals`):
   (:func:`outpaced`; a 2.1 kHz gyro in the uncontrolled lab: measured 0.30 mHz, drift term
   2.17 mHz, and the four iterations it went on drifted it to 8.1 mHz).
 
-A third applies on a drifting bench: ``split, aiming at X of the acceptance`` <= ``aim`` ×
-acceptance (:func:`aim_fraction`; ``[tuning] aim``, by default :data:`DRIFTING_AIM` when the run
-tracks the drift, ``[model] drift = "track"``, else 1). A split measured just under the
+A third applies on a drifting bench without the forecast: ``split, aiming at X of the
+acceptance`` <= ``aim`` × acceptance (:func:`aim_fraction`; ``[tuning] aim``, by default
+:data:`DRIFTING_AIM` when the run tracks the drift, else 1). A split measured just under the
 acceptance in the uncontrolled lab ends over it: the window's noise and the drift while it is
 measured add 0.2-0.9 mHz (six of 72 random gyros converged at 1.1-1.9 mHz and ended at
 2.0-2.8 mHz, acceptance 2 mHz); aiming at half the acceptance costs an iteration where it
@@ -129,13 +137,13 @@ def honest_goals(
     ``aim`` (:func:`aim_fraction`) below 1 adds the split's goal at ``aim × acceptance_hz``.
     ``end``: the 95 % bound and mean of the split at the end of the window by the tracked
     windows' forecast (:meth:`~sysid_core.run.tracking.Tracker.end_split`); with it, one goal,
-    that bound under the acceptance, stands for the aim and the window's own bound.
+    that bound under ``aim × acceptance_hz``, stands for the aim and the window's own bound.
     """
     if not ver.verified or ver.split_hz is None:
         return []
     goals = []
     if end is not None:
-        goals.append(Goal(END_GOAL, end[0], acceptance_hz))
+        goals.append(Goal(END_GOAL, end[0], aim * acceptance_hz))
         aim, end_only = 1.0, True
     else:
         end_only = False
@@ -188,20 +196,24 @@ def verdict(
     criterion: TuningCriterion,
     fitter: Fitter,
     acceptance_hz: float,
-    aim: float = 1.0,
+    aim: float | None = None,
     tracker: Tracker | None = None,
 ) -> tuple[list[Goal], bool, str | None]:
     """A verification's goals, whether the run converged, and why it stops unconverged (or None).
 
-    The criterion's goals and :func:`honest_goals` for ``model``, the iteration's (with the
-    ``tracker``'s forecast of the split at the window's end, when it has one); if they are all
-    met, the :func:`twin_goal` too; if only the drift's is not, :func:`outpaced`.
+    The criterion's goals and :func:`honest_goals` for ``model``, the iteration's: with the
+    ``tracker``'s forecast of the split at the window's end, when it has one, that forecast at
+    ``aim`` (``[tuning] aim``, 1 unset) times the acceptance; else the window's own goals at
+    :func:`aim_fraction`. If they are all met, the :func:`twin_goal` too; if only the drift's
+    is not, :func:`outpaced`.
     """
     if not ver.verified or ver.frequencies_hz is None or ver.split_hz is None:
         return [], False, None
     goals = criterion.goals(ver.frequencies_hz, acceptance_hz)
     end = None if tracker is None else tracker.end_split(model, ver.sweep)
-    goals += honest_goals(ver, model, acceptance_hz, aim, end)
+    tracking = tracker is not None and bool(tracker.windows)
+    fraction = (1.0 if aim is None else float(aim)) if end else aim_fraction(aim, tracking)
+    goals += honest_goals(ver, model, acceptance_hz, fraction, end)
     converged = all(g.met for g in goals)
     if converged and (twin := twin_goal(ver, fitter, acceptance_hz)):
         goals.append(twin)

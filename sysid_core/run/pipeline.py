@@ -52,7 +52,7 @@ from sysid_core.run.clock import RunClock
 from sysid_core.run.components import build_components
 from sysid_core.run.config import PipelineConfig
 from sysid_core.run.fitter import Fitter
-from sysid_core.run.judgement import aim_fraction, verdict
+from sysid_core.run.judgement import verdict
 from sysid_core.run.plots import PLOT_FORMATS, plot_bias_path, plot_iteration
 from sysid_core.run.previous import check_prior
 from sysid_core.run.protocols import RunContext, make_protocol
@@ -226,7 +226,6 @@ class TuningRun:
                 t0 = time.perf_counter()
                 ds, model = self._identify(it, bias, folder, center, split)
                 fit_time = time.perf_counter() - t0
-                aim = aim_fraction(cfg.aim, self.tracking)
                 now = self._track(it, model, ds) if self.tracking else model
                 step = self._answer(it, now, bias, folder, verified_splits(history))
                 # the fit of every sweep, if the local one fell short
@@ -239,7 +238,7 @@ class TuningRun:
             if self.tracking and self.tracker is not None:
                 self.tracker.learned(ver)
             goals, converged, stop = verdict(
-                ver, now, self.criterion, self.fitter, cfg.acceptance_hz, aim, self.tracker
+                ver, now, self.criterion, self.fitter, cfg.acceptance_hz, cfg.aim, self.tracker
             )
             if stop is not None:
                 self.notes.append(f"iteration {it}: {stop}")

@@ -293,3 +293,41 @@ def test_an_answer_beyond_the_linearised_step_from_a_near_bias_is_not_taken(
         np.testing.assert_allclose(found[:2], root[:2], atol=1e-3)
         assert found[2] == b0[2]
     assert untrusted_step(model, answer_bias, None, space.index, ACCEPTANCE, 0.25, 10.0) is None
+
+
+@pytest.mark.parametrize(
+    ("bound", "aim", "converged"),
+    [
+        (0.0015, None, True),  # the forecast's 95 % bound under the acceptance: converged
+        (0.0025, None, False),  # over it: keep going (no stop)
+        (0.0015, 0.5, False),  # under it, but over an aim of half of it: keep going
+    ],
+)
+def test_a_tracked_run_converges_on_its_windows_forecast_of_the_end(
+    bound: float, aim: float | None, converged: bool
+) -> None:
+    """One goal, the split the windows predict at the window's end at 95 %, decides: a 0.4 mHz
+    measured split whose forecast bound is 2.5 mHz (a noisy window, a drifting split) is not
+    converged; the window's own interval and the old aim no longer apply."""
+    from sysid_core.run.judgement import END_GOAL, verdict
+
+    window = xr.Dataset(coords={"frequency": np.linspace(1000.0, 1001.0, 5)})
+    model = SimpleNamespace(stiffness_factor=None, electrodes=[], meta={})
+    ver = Verification("verified", np.array([1000.5, 1000.5004]), [], window, model)  # type: ignore[arg-type]
+    tracker = SimpleNamespace(windows=[window], end_split=lambda m, s: (bound, 0.0004))
+    fitter = SimpleNamespace(twin=lambda sweep: None, twin_structure=None)
+    reg = get_registry()
+    criterion = reg.criterion("degenerate", solver=reg.solver("clarabel"))
+    goals, done, stop = verdict(
+        ver,
+        model,  # type: ignore[arg-type]
+        criterion,
+        fitter,  # type: ignore[arg-type]
+        ACCEPTANCE,
+        aim,
+        tracker,  # type: ignore[arg-type]
+    )
+    assert done is converged and stop is None
+    end = [g for g in goals if g.name == END_GOAL]
+    assert len(end) == 1 and end[0].limit_hz == pytest.approx((aim or 1.0) * ACCEPTANCE)
+    assert not any("aiming at" in g.name or "upper bound" in g.name for g in goals)
