@@ -32,6 +32,7 @@ import xarray as xr
 from scipy.stats import rice
 
 from sysid_core.data.schema import requested_bias
+from sysid_core.errors import ModelError
 from sysid_core.identification.anchor import anchor
 from sysid_core.identification.drift import OffsetDrift, offset_drift
 from sysid_core.identification.splittrend import SplitForecast
@@ -229,14 +230,24 @@ class Tracker:
             span = np.concatenate([stamps(w) for w, _ in chosen_own])
             moved = with_split_rate(moved, self.forecast, float(np.ptp(span)))
         self.rates = seen = offset_drift(moved)
-        rates = "" if seen is None else f"; drift {seen.common_hz_per_h * 1e3:+.4g} mHz/h common"
-        own = (
+        rates = (
             ""
-            if self.forecast is None
-            else f"; {self.forecast.windows} window(s) predict a split of "
-            f"{self.forecast.split_hz * 1e3:.3g} ± {1.96 * self.forecast.sigma_hz * 1e3:.2g} "
-            f"mHz, moving {np.hypot(*self.forecast.rate_hz_per_s) * 6e4:.2g} mHz/min"
+            if seen is None or found.rate is None  # one time: no common rate measured
+            else f"; drift {seen.common_hz_per_h * 1e3:+.4g} mHz/h common"
         )
+        own = ""
+        if self.forecast is not None:
+            latest = self.windows[-1].sel(electrode=list(model.electrodes))
+            try:
+                there = moved.split_hz(np.asarray(latest["bias"].values[0], dtype=float))
+                at_latest = f"{there * 1e3:.3g} ± {1.96 * self.forecast.sigma_hz * 1e3:.2g} mHz"
+            except ModelError:  # no modes there: the rate alone is said
+                at_latest = "no split"
+            own = (
+                f"; {self.forecast.windows} window(s) predict {at_latest} at the latest bias "
+                f"then, the split moving {np.hypot(*self.forecast.rate_hz_per_s) * 6e4:.2g} "
+                "mHz/min"
+            )
         if refused:
             own += (
                 f"; {refused} window(s) give no split of their own (a fitted mode that none of "

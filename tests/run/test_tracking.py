@@ -348,7 +348,7 @@ def test_the_tracker_says_what_its_windows_predict() -> None:
     lines: list[str] = []
     tracker.now(model, tracker.windows[-1], lines.append, 6)
     assert tracker.forecast is not None and tracker.forecast.windows == 5
-    assert "5 window(s) predict a split of" in lines[-1], lines[-1]
+    assert "5 window(s) predict" in lines[-1] and "at the latest bias then" in lines[-1]
 
 
 def _fast_windows(seed: int, noise_seed: int, count: int) -> tuple[object, object, list, list]:
