@@ -3,9 +3,11 @@
 One point per iteration, at the bench time spent by the end of its verification (the device's
 clock, else the estimate): the split the verification measured with its 95 % interval (from
 the window's own fit), the 95 % range the model predicted for it when the answer was solved
-(the tracked model moved to the verification's time on a drifting bench), the acceptance, and
-the bench-time budget. On a drifting bench the gap between the predicted range and the
-measured split is what the drift did that the model did not foresee.
+(the tracked model moved to the verification's time on a drifting bench), on a tracked run the
+95 % bound of the split its windows predict for that window's end (the verdict's goal,
+docs/drift-model.md), the acceptance, and the bench-time budget. On a drifting bench the gap
+between the predicted range and the measured split is what the drift did that the model did
+not foresee.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from sysid_core.run.judgement import END_GOAL
 from sysid_core.run.plots import save_figure
 
 if TYPE_CHECKING:
@@ -86,6 +89,23 @@ def timeline_figure(
             else None,
         )
         ax.annotate(str(h.iteration), (t, y), textcoords="offset points", xytext=(4, 4), fontsize=7)
+    # the tracked windows' forecast of the split at each window's end: its 95 % bound
+    ends = [
+        (float(h.bench_time_s or 0.0) / 60.0, max(1e3 * float(g["value_hz"]), floor))
+        for h in shown
+        for g in h.goals
+        if g.get("name") == END_GOAL
+    ]
+    if ends:
+        ax.plot(
+            *zip(*ends, strict=True),
+            "v",
+            color="tab:purple",
+            mfc="none",
+            ms=10,
+            zorder=3,
+            label="the windows' forecast at the end (95 % bound)",
+        )
     if acceptance_hz is not None:
         ax.axhline(
             acceptance_hz * 1e3,

@@ -302,3 +302,35 @@ def test_time_stamps_that_go_backwards_or_are_not_finite_are_refused_in_one_line
     # the refused answer is kept aside, the earlier measurements stay on disk
     assert list((tmp_path / "run" / "rejected").iterdir())
     assert len(list((tmp_path / "run" / "iter01").glob("*.nc"))) == device.at - 1
+
+
+def test_the_timeline_shows_the_windows_forecast_and_a_far_budget_in_words() -> None:
+    """drift.png: each tracked verification's forecast bound (the verdict's goal) is drawn at
+    its time; a budget far past the run is named in the legend, not drawn as a line."""
+    from types import SimpleNamespace
+
+    from sysid_core.run.judgement import END_GOAL
+    from sysid_core.run.timeline import timeline_figure
+
+    def record(it: int, t: float, split: float, bound: float) -> SimpleNamespace:
+        goals = [{"name": END_GOAL, "value_hz": bound, "limit_hz": 0.002, "met": bound <= 0.002}]
+        return SimpleNamespace(
+            iteration=it,
+            bench_time_s=t,
+            tuning={},
+            measured_split_hz=split,
+            measured_split_ci_hz=None,
+            goals=goals,
+        )
+
+    history = [record(1, 120.0, 0.08, 0.09), record(2, 300.0, 0.0009, 0.0016)]
+    fig = timeline_figure(history, 0.002, budget_s=3600.0)  # type: ignore[arg-type]
+    ax = fig.axes[0]
+    forecast = [ln for ln in ax.lines if ln.get_label().startswith("the windows' forecast")]
+    assert len(forecast) == 1
+    np.testing.assert_allclose(forecast[0].get_xdata(), [2.0, 5.0])
+    np.testing.assert_allclose(forecast[0].get_ydata(), [90.0, 1.6])
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "budget 60 min (not reached)" in labels
+    near = timeline_figure(history, 0.002, budget_s=600.0)  # type: ignore[arg-type]
+    assert "budget 10 min" in [t.get_text() for t in near.axes[0].get_legend().get_texts()]
