@@ -7,13 +7,12 @@ frequencies in Hz, the optional ``time_s``, the same checks. Every error is a
 :class:`~sysid_core.errors.FileFormatError` naming the file, the line and the column with the
 map's key, e.g. ``exp0-u1.csv, line 7: column 'theta1' (y1.phase_deg) is 'n/a', not a number``.
 
-Text is UTF-8 (a byte-order mark is allowed), UTF-16 with its byte-order mark (Windows' "Unicode
-text"), else Latin-1 (an instrument's ``°`` or ``µ`` from a Windows PC).
+Text is read by :mod:`sysid_core.data.textfile` (its size, NUL bytes and line lengths checked
+first; UTF-16 with its byte-order mark, UTF-8, else Latin-1).
 """
 
 from __future__ import annotations
 
-import csv
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -24,6 +23,7 @@ import xarray as xr
 
 from sysid_core.data.columnmap import CHANNEL_KEYS, FREQUENCY_UNITS, LAYOUTS, ColumnMap
 from sysid_core.data.sweep import check_sweep, check_times, make_sweep
+from sysid_core.data.textfile import read_text, split_fields
 from sysid_core.errors import FileFormatError
 
 __all__ = ["decode_text", "read_columns", "split_fields"]
@@ -33,34 +33,8 @@ GRID_RTOL = 1e-9
 
 
 def decode_text(path: Path) -> str:
-    """The text of a file: UTF-16 with its byte-order mark, UTF-8 (with or without), or Latin-1."""
-    raw = path.read_bytes()
-    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):  # Windows' "Unicode text"
-        try:
-            return raw.decode("utf-16")
-        except UnicodeDecodeError as exc:
-            raise FileFormatError(f"{path}: not a UTF-16 text file ({exc.reason})") from exc
-    if b"\x00" in raw[:4096]:
-        raise FileFormatError(f"{path}: not a text file (it holds NUL bytes)")
-    try:
-        return raw.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        return raw.decode("latin-1")
-
-
-def split_fields(line: str, delimiter: str) -> list[str]:
-    """The fields of one line, stripped, without trailing empty fields (a trailing delimiter).
-
-    ``delimiter`` is one character (quotes are honoured, as the ``csv`` module does) or
-    ``"whitespace"``.
-    """
-    if delimiter == "whitespace":
-        fields = line.split()
-    else:
-        fields = [f.strip() for f in next(csv.reader([line], delimiter=delimiter), [])]
-    while fields and not fields[-1]:
-        fields.pop()
-    return fields
+    """The text of a file, checked and decoded (:func:`sysid_core.data.textfile.read_text`)."""
+    return read_text(path)
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
@@ -19,9 +18,8 @@ from sysid_core.data.sweep import (
     check_times,
     make_sweep,
 )
-from sysid_core.errors import (
-    FileFormatError,
-)
+from sysid_core.data.textfile import read_text, split_fields
+from sysid_core.errors import FileFormatError
 
 __all__ = ["csv_text", "read_csv"]
 
@@ -71,10 +69,7 @@ def _header_problem(fields: list[str]) -> str:
 
 def read_csv(path: Path) -> xr.DataArray:
     """The sweep in the CSV file at ``path``, checked (:class:`FileFormatError` names the line)."""
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise FileFormatError(f"{path}: not a UTF-8 text file ({exc.reason})") from exc
+    text = read_text(path)
     units, header_line, rows, lines, timed = _parse_lines(text, path)
     if not header_line:
         raise FileFormatError(f"{path}: no header line; expected {CSV_HEADER}")
@@ -116,7 +111,7 @@ def _parse_lines(
             continue
         if not line.strip():
             continue
-        fields = [x.strip() for x in next(csv.reader([line]))]
+        fields = split_fields(line)
         if not header_line:
             if tuple(fields) not in (CSV_COLUMNS, TIMED_CSV_COLUMNS):
                 raise FileFormatError(

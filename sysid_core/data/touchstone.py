@@ -14,6 +14,7 @@ from sysid_core.data.sweep import (
     check_sweep,
     make_sweep,
 )
+from sysid_core.data.textfile import read_text
 from sysid_core.errors import (
     FileFormatError,
 )
@@ -59,11 +60,7 @@ def read_s2p(path: Path) -> xr.DataArray:
     """The sweep in the Touchstone ``.s2p`` file at ``path``, checked (errors name the line)."""
     import skrf
 
-    raw = path.read_bytes()
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError:
-        text = raw.decode("latin-1")
+    text = read_text(path)
     option = next(
         (
             (n, line.strip())
