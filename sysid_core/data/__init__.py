@@ -2,7 +2,8 @@
 
 Lives here: the ``xarray`` schema of a multi-experiment data set and its netCDF files
 (:mod:`.schema`), the checks of a data set and of the rank condition (6) (:mod:`.validation`),
-atomic file writing (:mod:`.io`), one sweep per file in CSV, Touchstone, MATLAB (v4 to v7.3,
+atomic file writing (:mod:`.io`), the one reader of text files (:mod:`.textfile`), one sweep
+per file in CSV, Touchstone, MATLAB (v4 to v7.3,
 :mod:`.mat73`) and netCDF (:mod:`.sweepfiles`), instruments' text exports read with column maps
 (:mod:`.columnmap`, :mod:`.columnsweep`, :mod:`.columnguess`), manifests of measured experiments
 (:mod:`.manifest`, :mod:`.export`) and the reading of a run folder's measurements
