@@ -11,7 +11,8 @@ experiment, and one experiment's ``[experiment.columns]``, whose keys replace th
     header = true                # the first line that is not skipped names the columns
     frequency = "frequency"      # a column: its name in the header, or its number (1 = first)
     frequency_unit = "Hz"        # Hz (default), kHz, MHz, GHz or rad/s
-    time_s = "time"              # optional: each point's time stamp, seconds
+    time_s = "time"              # optional: each point's time stamp ...
+    time_unit = "s"              # ... in s (default), ms, us, ns, or "ticks" with ticks_per_s
     response_units = "V/V"       # optional: the response's units
     y1 = { mag = "r1", phase_deg = "theta1" }
     y2 = { mag = "r2", phase_deg = "theta2" }
@@ -51,6 +52,7 @@ __all__ = [
     "INPUT_KEYS",
     "LAYOUTS",
     "PARTS",
+    "TIME_UNITS",
     "ChannelColumns",
     "ColumnMap",
     "ColumnRef",
@@ -71,6 +73,8 @@ LAYOUTS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
 PARTS = ("re", "im", "mag", "db", "phase_deg", "phase_rad")
 #: Each frequency unit's factor to Hz.
 FREQUENCY_UNITS = {"Hz": 1.0, "kHz": 1e3, "MHz": 1e6, "GHz": 1e9, "rad/s": 1 / (2 * math.pi)}
+#: Seconds per unit of ``time_unit`` (``"ticks"``: ``1 / ticks_per_s``).
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 _PAIRS = (
     {"re", "im"},
     {"mag", "phase_deg"},
@@ -134,6 +138,8 @@ class ColumnMap(BaseModel):
     frequency: ColumnRef
     frequency_unit: Literal["Hz", "kHz", "MHz", "GHz", "rad/s"] = "Hz"
     time_s: ColumnRef | None = None
+    time_unit: Literal["s", "ms", "us", "ns", "ticks"] = "s"
+    ticks_per_s: float | None = Field(None, gt=0, allow_inf_nan=False)
     response_units: str = ""
     y1_u1: ChannelColumns | None = None
     y1_u2: ChannelColumns | None = None
@@ -164,8 +170,21 @@ class ColumnMap(BaseModel):
             )
         return value
 
+    @property
+    def seconds_per_time_unit(self) -> float:
+        """What one unit of the ``time_s`` column is, in seconds."""
+        if self.time_unit == "ticks":
+            assert self.ticks_per_s is not None  # checked by the model
+            return 1.0 / self.ticks_per_s
+        return TIME_UNITS[self.time_unit]
+
     @model_validator(mode="after")
     def _consistent(self) -> ColumnMap:
+        if (self.time_unit == "ticks") != (self.ticks_per_s is not None):
+            raise ValueError(
+                "time_unit = 'ticks' needs ticks_per_s (the clock's rate, e.g. 60e6 for a "
+                "lock-in's 60 MHz timestamp), and ticks_per_s needs time_unit = 'ticks'"
+            )
         if self.decimal == "," and self.delimiter == ",":
             raise ValueError(
                 "decimal = ',' needs another delimiter (e.g. ';'): with ',' for both a row "

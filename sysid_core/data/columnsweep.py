@@ -106,8 +106,31 @@ def read_columns(
     check_sweep(f, resp, source, freq_at, value_at)
     times = first.values.get("time_s")
     if times is not None:
+        times = times * column_map.seconds_per_time_unit
         check_times(times, lambda k: f"{first.path}, line {first.lines[k]}: time_s", f.size)
+        _check_span(times, first, column_map)
     return make_sweep(f, resp, column_map.response_units, source, times)
+
+
+#: The longest a sweep's time stamps may span: a month. The slowest sweep a bench measures (a
+#: 1 kHz gyro of Q 10^6: τ = Q/(π f) = 5.3 min, 5 τ a point, 200 points) takes 3.7 days; a span
+#: of months or years is a clock read in the wrong unit (ticks taken for seconds).
+MAX_SWEEP_SPAN_S = 30 * 86_400.0
+
+
+def _check_span(times: np.ndarray, table: _Table, column_map: ColumnMap) -> None:
+    """Refuse a sweep whose time stamps span more than :data:`MAX_SWEEP_SPAN_S`."""
+    span = float(np.ptp(times)) if times.size else 0.0
+    if span > MAX_SWEEP_SPAN_S:
+        unit = column_map.time_unit if column_map.time_unit != "ticks" else "ticks"
+        days = span / 86_400
+        spans = f"{days:.3g} days" if days < 1000 else f"{days / 365.25:.3g} years"
+        raise FileFormatError(
+            f"{table.path}: column {table.labels['time_s']} (time_s) spans {spans} "
+            f"read in {unit}, more than one sweep can take ({MAX_SWEEP_SPAN_S / 86_400:.0f} "
+            'days): give the clock\'s unit in the column map (time_unit = "ms", "us", '
+            '"ns", or "ticks" with ticks_per_s)'
+        )
 
 
 def _same_grid(first: _Table, other: _Table) -> None:

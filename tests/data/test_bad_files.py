@@ -153,3 +153,44 @@ def test_the_own_csv_reader_takes_what_the_column_reader_takes(tmp_path: Path) -
         got = read_sweep(path)
         np.testing.assert_array_equal(got.values, ref.values)
         np.testing.assert_array_equal(got["frequency"].values, ref["frequency"].values)
+
+
+def _lockin(tmp_path: Path, time_keys: str) -> Path:
+    """A lock-in's export: frequency, the four channels as re/im, and a timestamp in ticks of a
+    60 MHz clock (a point every 2 s, 1.6e17 ticks since its epoch)."""
+    f = np.linspace(4385.0, 4445.0, 31)
+    ticks = 1.6e17 + np.arange(f.size) * 2.0 * 60e6
+    rows = ["frequency,timestamp,a,b,c,d,e,g,h,i"]
+    for k in range(f.size):
+        rows.append(f"{float(f[k])!r},{ticks[k]:.0f},1,2,3,4,5,6,7,8")
+    (tmp_path / "lockin.csv").write_text("\n".join(rows) + "\n")
+    path = tmp_path / "m.toml"
+    path.write_text(
+        'structure_potential_v = 15.58\nelectrodes = ["B1", "B2"]\n[columns]\n'
+        f'frequency = "frequency"\ntime_s = "timestamp"\n{time_keys}'
+        'y1_u1 = { re = "a", im = "b" }\ny1_u2 = { re = "c", im = "d" }\n'
+        'y2_u1 = { re = "e", im = "g" }\ny2_u2 = { re = "h", im = "i" }\n'
+        + "".join(
+            f'[[experiment]]\nbias_v = {b}\nfile = "lockin.csv"\n'
+            for b in ([0.0, 0.0], [1.0, 0.0], [0.0, 1.0])
+        )
+    )
+    return path
+
+
+def test_a_clock_in_ticks_is_refused_unless_the_map_gives_its_rate(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A lock-in's tick count mapped as seconds spans 114 years in one sweep: refused, naming the
+    column and the keys to set; with ``time_unit = "ticks"`` and ``ticks_per_s`` it reads as
+    a point every 2 s."""
+    from sysid_core.data.manifest import load_manifest
+
+    line = _refused(capsys, ["import", str(_lockin(tmp_path, ""))])
+    assert "lockin.csv" in line and "timestamp" in line and "ticks_per_s" in line, line
+    assert "spans 114 years read in s" in line, line
+    data = load_manifest(_lockin(tmp_path, 'time_unit = "ticks"\nticks_per_s = 60e6\n'))
+    t = np.asarray(data["time_s"].values[0], dtype=float)
+    np.testing.assert_allclose(np.diff(t), 2.0, rtol=1e-9)
+    line = _refused(capsys, ["import", str(_lockin(tmp_path, 'time_unit = "ticks"\n'))])
+    assert "ticks_per_s" in line, line
