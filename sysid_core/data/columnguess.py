@@ -197,10 +197,18 @@ def _skipped(guess: Guess, lines: list[str], first: int, stop: int, delimiter: s
     """``comment`` and ``skip_lines``: the lines before the header or data, and after the data."""
     marks: list[str] = []
     before = [split_fields(line, delimiter) for line in lines[:first] if line.strip()]
-    if all(any(f[0].startswith(m) for m in _COMMENT_MARKS) for f in before if f):
-        marks += [m for m in _COMMENT_MARKS if any(f and f[0].startswith(m) for f in before)]
-    else:
-        guess.keys["skip_lines"] = first
+    marks += [m for m in _COMMENT_MARKS if any(f and f[0].startswith(m) for f in before)]
+    # a marker line of one field led by a word (an analyzer's "BEGIN CH1_DATA") is a comment
+    # too: a map that skips a count of lines breaks on a file with one more comment line
+    for f in before:
+        if f and not any(f[0].startswith(m) for m in marks):
+            word = f[0].split()[0]
+            if len(f) == 1 and word.isalpha():
+                marks.append(word)
+            else:
+                guess.keys["skip_lines"] = first
+                marks = [m for m in marks if m in _COMMENT_MARKS]
+                break
     for line in lines[stop:]:
         fields = split_fields(line, delimiter)
         word = fields[0].split()[0] if fields and fields[0].split() else ""

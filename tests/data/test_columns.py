@@ -290,7 +290,16 @@ def test_guess_network_analyzer_exports(
     f, h, _ = sweeps(truth)[0]
     write_keysight_begin_end(folder / "port2.csv", f, h[:, :, 1], 2)
     text = guessed_columns(folder / "port2.csv", capsys)
-    assert 'skip_lines = 6\ncomment = ["END"]\nfrequency = "Freq(Hz)"' in text
+    # the comment lines and the BEGIN/END markers as comments, not a count of lines to skip:
+    # the map also reads a file with one more "!" line (issue: skip_lines = 6 broke on it)
+    assert 'comment = ["!", "BEGIN", "END"]\nfrequency = "Freq(Hz)"' in text
+    assert "skip_lines" not in text
+    longer = folder / "port2-more.csv"
+    lines_ = (folder / "port2.csv").read_text().splitlines()
+    longer.write_text("\n".join(["!Calibration: on", *lines_]) + "\n")
+    table = parse_column_map(tomllib.loads("[c]\n" + text)["c"], "guess")
+    again = read_columns({"u1": longer, "u2": longer}, table)
+    np.testing.assert_allclose(again.values[:, :, 1], h[:, :, 1], rtol=1e-12, atol=0)
     assert "y1 = { db = 2, phase_deg = 3 }\ny2 = { db = 4, phase_deg = 5 }" in text  # S12, S22
     assert '# files = { u2 = "port2.csv", u1 = "..." }' in text
     read = read_columns(
