@@ -168,6 +168,7 @@ class ExchangeDevice:
             f"({f.size} points); write {names} in {self.dir} (error-{stem}.txt if it failed)"
         )
         t0 = time.monotonic()
+        rejected: list[str] = []  # why answers to this request were refused, for the error
         while True:
             error = self.dir / f"error-{stem}.txt"
             if error.exists():
@@ -178,7 +179,7 @@ class ExchangeDevice:
             for ext in SWEEP_FORMATS:
                 path = self.dir / f"response-{stem}{ext}"
                 if path.exists():
-                    answer = self._read(path, f)
+                    answer = self._read(path, f, rejected)
                     if answer is not None:
                         if earlier:
                             self._say(
@@ -187,14 +188,20 @@ class ExchangeDevice:
                             )
                         return answer
             if self.wait_s is not None and time.monotonic() - t0 > self.wait_s:
+                why = f" (the last answer was rejected: {rejected[-1]})" if rejected else ""
                 raise DeviceError(
                     f"exchange: no answer to request-{stem}.json in {self.dir} within "
-                    f"{self.wait_s:g} s; write {names}, then run again with --resume"
+                    f"{self.wait_s:g} s{why}; write {names}, then run again with --resume"
                 )
             time.sleep(self.poll_s)
 
-    def _read(self, path: Path, f: np.ndarray) -> xr.DataArray | None:
-        """The answer in ``path``, or None after moving a bad one to ``rejected/``."""
+    def _read(
+        self, path: Path, f: np.ndarray, rejected: list[str] | None = None
+    ) -> xr.DataArray | None:
+        """The answer in ``path``, or None after moving a bad one to ``rejected/``.
+
+        The reason of a refusal is appended to ``rejected``, kept beside the file and said.
+        """
         try:
             answer = read_sweep(path)
             check_answer(answer, f)
@@ -204,6 +211,8 @@ class ExchangeDevice:
             n = 1 + sum(1 for _ in folder.glob(f"{path.name}.*.txt"))
             shutil.move(str(path), folder / f"{path.name}.{n}")
             (folder / f"{path.name}.{n}.txt").write_text(f"{exc}\n")
+            if rejected is not None:
+                rejected.append(f"{exc}; kept as rejected/{path.name}.{n}")
             self._say(f"exchange: {path.name} rejected ({exc}); moved to rejected/, write it again")
             return None
         return answer

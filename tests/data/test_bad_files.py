@@ -18,7 +18,7 @@ import sysid_core.data.textfile as textfile
 from sysid_core.cli import main
 from sysid_core.data.sweep import CSV_HEADER
 from sysid_core.data.sweepfiles import read_sweep
-from sysid_core.errors import FileFormatError
+from sysid_core.errors import DeviceError, FileFormatError
 
 ROW = "4385,1,2,3,4,5,6,7,8"
 ROW2 = "4386,1,2,3,4,5,6,7,8"
@@ -194,3 +194,36 @@ def test_a_clock_in_ticks_is_refused_unless_the_map_gives_its_rate(
     np.testing.assert_allclose(np.diff(t), 2.0, rtol=1e-9)
     line = _refused(capsys, ["import", str(_lockin(tmp_path, 'time_unit = "ticks"\n'))])
     assert "ticks_per_s" in line, line
+
+
+def test_an_exchange_answer_with_a_huge_field_is_rejected_and_the_reason_ends_the_wait(
+    tmp_path: Path,
+) -> None:
+    """Through the exchange device: an answer with one field of 200 000 characters is moved to
+    rejected/ with its reason (not an internal error), and when no answer follows, the one line
+    that ends the run says why the last answer was refused (with --json it is the only line)."""
+    from sysid_exchange.device import ExchangeDevice
+
+    folder = tmp_path / "exchange"
+    folder.mkdir()
+    device = ExchangeDevice(
+        dir=str(folder),
+        electrodes=["B1", "B2"],
+        bias_limits=[-10.0, 10.0],
+        structure_potential=15.58,
+        band_hz=[4385.0, 4445.0],
+        wait_s=0.3,
+        poll_s=0.05,
+    )
+    (folder / "response-0001.csv").write_text(
+        f"{CSV_HEADER}\n{ROW}\n4386,{'1' * 200_000},2,3,4,5,6,7,8\n"
+    )
+    with pytest.raises(FileFormatError) as never:  # what the reader says of it
+        read_sweep(folder / "response-0001.csv")
+    with pytest.raises(
+        DeviceError, match=r"the last answer was rejected: .*line 3: 200019"
+    ) as info:
+        device.measure([0.0, 0.0], np.array([4385.0, 4386.0]))
+    assert "\n" not in str(info.value) and "rejected/response-0001.csv.1" in str(info.value)
+    reason = (folder / "rejected" / "response-0001.csv.1.txt").read_text()
+    assert str(never.value).split(": ", 1)[1] in reason
