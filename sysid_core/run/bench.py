@@ -21,7 +21,11 @@ from sysid_core.device.measuring import GuardedDevice
 from sysid_core.errors import DeviceError, InvalidAnswerError
 from sysid_core.run.benchtime import acquisitions, points_per_frequency
 
-__all__ = ["Bench"]
+__all__ = [
+    "PURPOSES",
+    "Bench",
+    "purpose_of",
+]
 
 
 class Bench:
@@ -83,6 +87,12 @@ class Bench:
         self.first_s: float | None = None
         self.last_s: float | None = None
         self.untimed = 0
+        #: The bench clock by purpose (:func:`purpose_of`), and split into the time between
+        #: measurements (settling after a bias change, and waiting) and the time their points
+        #: span (acquiring), in seconds: from the time stamps only.
+        self.by_purpose: dict[str, float] = {}
+        self.settling_s = 0.0
+        self.acquiring_s = 0.0
         #: The latest stamp of a measurement this process made (not read): the next must not
         #: be earlier.
         self._clock_s: float | None = None
@@ -120,6 +130,11 @@ class Bench:
             self.untimed += 1
         else:
             low, high = float(times.min()), float(times.max())
+            gap = 0.0 if self.last_s is None else max(low - self.last_s, 0.0)
+            purpose = purpose_of(path.name)
+            self.by_purpose[purpose] = self.by_purpose.get(purpose, 0.0) + gap + (high - low)
+            self.settling_s += gap
+            self.acquiring_s += high - low
             self.first_s = low if self.first_s is None else min(self.first_s, low)
             self.last_s = high if self.last_s is None else max(self.last_s, high)
         return ds
@@ -173,3 +188,25 @@ class Bench:
                 self.say(f"note: {message}")
                 return
             raise DeviceError(message) from exc
+
+
+#: What a run measures for, by the name of the file it saves a measurement in.
+PURPOSES = ("design", "verification", "locating", "repeats", "other")
+
+
+def purpose_of(name: str) -> str:
+    """The purpose of the measurement saved as ``name`` (one of :data:`PURPOSES`).
+
+    ``exp<j>.nc``: the design of an identification; ``verify*.nc``: a verification window;
+    ``*locate*``, ``*probe*`` and ``*-band*``: sweeps that locate the modes; ``*-pass<k>*`` and
+    ``window-again.nc``: a window measured again.
+    """
+    if "-pass" in name or name.startswith("window-again"):
+        return "repeats"
+    if "locate" in name or "probe" in name or "-band" in name:
+        return "locating"
+    if name.startswith("verify"):
+        return "verification"
+    if name.startswith("exp"):
+        return "design"
+    return "other"

@@ -161,9 +161,16 @@ class RunClock:
         return self.budget.cap
 
     def describe(self, spent: float | None) -> str:
-        """What the run spent of its budget, for the progress (estimated where not binding)."""
+        """What the run spent of its budget, for the progress (estimated where not binding).
+
+        On a clock, also what it spent the time on (:func:`sysid_core.run.bench.purpose_of`).
+        """
         if self.binding or spent is None:
-            return self.budget.describe(spent, self.limit_s)
+            parts = self.bench.by_purpose if self.bench.clock_span_s is not None else {}
+            said = ", ".join(f"{k} {minutes(v)}" for k, v in parts.items() if v > 0)
+            settling = minutes(self.bench.settling_s)
+            on = f"; {said} min ({settling} min of it settling)" if said else ""
+            return self.budget.describe(spent, self.limit_s) + on
         return (
             f"bench time about {minutes(spent)} min, estimated from the fitted Q (the budget of "
             f"{minutes(self.limit_s)} min binds a run on a clock or with a stated dwell)"

@@ -148,6 +148,10 @@ class RunSummary:
     stopped: str | None = None
     #: The bench-time budget (``[tuning] max_bench_minutes``, seconds).
     bench_budget_s: float | None = None
+    #: The bench clock by purpose (design, verification, locating, repeats, other) and as
+    #: settling against acquiring (seconds; on a clock only, else None).
+    bench_time_by_purpose_s: dict[str, float] | None = None
+    bench_time_split_s: dict[str, float] | None = None
 
     @classmethod
     def start(cls, device: str, bias: np.ndarray, space: BiasSpace, out: str) -> RunSummary:
@@ -184,6 +188,7 @@ class RunSummary:
             experiments=bench.measurements,
             points=bench.points,
             acquisitions=bench.acquisitions,
+            **_clock_parts(bench),
         )
 
     @property
@@ -224,6 +229,8 @@ class RunSummary:
             "drift_common_hz_per_h": self.drift_common_hz_per_h,
             "drift_split_hz_per_h": self.drift_split_hz_per_h,
             "bench_budget_s": self.bench_budget_s,
+            "bench_time_by_purpose_s": self.bench_time_by_purpose_s,
+            "bench_time_split_s": self.bench_time_split_s,
             "converged": self.converged,
             "stopped": self.stopped,
             "verified": self.verified,
@@ -334,7 +341,16 @@ def summarize(
         drift_common_hz_per_h=drift[0],
         drift_split_hz_per_h=drift[1],
         bench_budget_s=budget_s,
+        **_clock_parts(bench),
     )
+
+
+def _clock_parts(bench: Bench) -> dict[str, dict[str, float] | None]:
+    """The bench clock by purpose and as settling against acquiring (None without a clock)."""
+    if bench.clock_span_s is None:
+        return {"bench_time_by_purpose_s": None, "bench_time_split_s": None}
+    split = {"settling": bench.settling_s, "acquiring": bench.acquiring_s}
+    return {"bench_time_by_purpose_s": dict(bench.by_purpose), "bench_time_split_s": split}
 
 
 def _interval(ver: Verification) -> list[float] | None:

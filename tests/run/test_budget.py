@@ -334,3 +334,46 @@ def test_the_timeline_shows_the_windows_forecast_and_a_far_budget_in_words() -> 
     assert "budget 60 min (not reached)" in labels
     near = timeline_figure(history, 0.002, budget_s=600.0)  # type: ignore[arg-type]
     assert "budget 10 min" in [t.get_text() for t in near.axes[0].get_legend().get_texts()]
+
+
+@pytest.mark.parametrize(
+    ("name", "purpose"),
+    [
+        ("exp3.nc", "design"),
+        ("exp0-locate.nc", "locating"),
+        ("verify.nc", "verification"),
+        ("verify-fine2.nc", "verification"),
+        ("verify-band.nc", "locating"),
+        ("verify-pass2.nc", "repeats"),
+        ("window-again.nc", "repeats"),
+        ("probe.nc", "locating"),
+        ("notes.nc", "other"),
+    ],
+)
+def test_each_measurement_has_a_purpose(name: str, purpose: str) -> None:
+    from sysid_core.run.bench import PURPOSES, purpose_of
+
+    assert purpose_of(name) == purpose and purpose in PURPOSES
+
+
+def test_the_summary_says_where_the_bench_time_went(tmp_path: Path) -> None:
+    """On a clock: the time by purpose and as settling against acquiring both add up to the span
+    of the run's time stamps, and the progress says it; without a clock, nothing is claimed."""
+    lines: list[str] = []
+    result = tune(
+        with_tuning(max_iterations=2),
+        tmp_path / "clock",
+        device=clocked(),
+        plots=False,
+        progress=lines.append,
+    )
+    summary = json.loads((tmp_path / "clock" / "summary.json").read_text())
+    parts, split = summary["bench_time_by_purpose_s"], summary["bench_time_split_s"]
+    assert parts["design"] > 0 and parts["verification"] > 0
+    times = [t for h in result.history for t in [h.bench_time_s] if t is not None]
+    span = sum(split.values())
+    assert sum(parts.values()) == pytest.approx(span, rel=1e-12)
+    assert 0 < span <= times[-1]
+    assert any("of it settling" in line and "design" in line for line in lines)
+    frozen = tune(with_tuning(max_iterations=1), tmp_path / "frozen", device=CloverleafGyro(seed=3))
+    assert frozen.as_dict()["bench_time_by_purpose_s"] is None
