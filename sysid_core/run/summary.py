@@ -179,6 +179,7 @@ class RunSummary:
 
         With the run's ``notes``, bench time and the counts of its ``bench`` as they are now.
         """
+        by_purpose, split = _clock_parts(bench)
         return dataclasses.replace(
             self,
             notes=list(notes),
@@ -188,7 +189,8 @@ class RunSummary:
             experiments=bench.measurements,
             points=bench.points,
             acquisitions=bench.acquisitions,
-            **_clock_parts(bench),
+            bench_time_by_purpose_s=by_purpose,
+            bench_time_split_s=split,
         )
 
     @property
@@ -307,6 +309,7 @@ def summarize(
     n_acq, bias_changes, clock_span_s = bench.acquisitions, bench.bias_changes, bench.clock_span_s
     points, measurements = bench.points, bench.measurements
     estimate = spent_s(None, n_acq, bias_changes, dwell_s, settle_s)
+    by_purpose, split = _clock_parts(bench)
     return dataclasses.replace(
         before,
         bias=list(last.verified_bias),
@@ -341,16 +344,16 @@ def summarize(
         drift_common_hz_per_h=drift[0],
         drift_split_hz_per_h=drift[1],
         bench_budget_s=budget_s,
-        **_clock_parts(bench),
+        bench_time_by_purpose_s=by_purpose,
+        bench_time_split_s=split,
     )
 
 
-def _clock_parts(bench: Bench) -> dict[str, dict[str, float] | None]:
+def _clock_parts(bench: Bench) -> tuple[dict[str, float] | None, dict[str, float] | None]:
     """The bench clock by purpose and as settling against acquiring (None without a clock)."""
     if bench.clock_span_s is None:
-        return {"bench_time_by_purpose_s": None, "bench_time_split_s": None}
-    split = {"settling": bench.settling_s, "acquiring": bench.acquiring_s}
-    return {"bench_time_by_purpose_s": dict(bench.by_purpose), "bench_time_split_s": split}
+        return None, None
+    return dict(bench.by_purpose), {"settling": bench.settling_s, "acquiring": bench.acquiring_s}
 
 
 def _interval(ver: Verification) -> list[float] | None:

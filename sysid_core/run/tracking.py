@@ -237,9 +237,9 @@ class Tracker:
         )
         own = ""
         if self.forecast is not None:
-            latest = self.windows[-1].sel(electrode=list(model.electrodes))
+            window = self.windows[-1].sel(electrode=list(model.electrodes))
             try:
-                there = moved.split_hz(np.asarray(latest["bias"].values[0], dtype=float))
+                there = moved.split_hz(np.asarray(window["bias"].values[0], dtype=float))
                 at_latest = f"{there * 1e3:.3g} ± {1.96 * self.forecast.sigma_hz * 1e3:.2g} mHz"
             except ModelError:  # no modes there: the rate alone is said
                 at_latest = "no split"

@@ -106,9 +106,7 @@ def test_what_the_anchored_model_misses_is_told_from_the_split() -> None:
     shift=st.floats(-1e6, 1e6),
     order=st.permutations(range(4)),
 )
-def test_the_clock_origin_and_window_order_do_not_matter(
-    shift: float, order: list[int]
-) -> None:
+def test_the_clock_origin_and_window_order_do_not_matter(shift: float, order: list[int]) -> None:
     t = np.array([0.0, 90.0, 200.0, 330.0])
     y = np.array([[1.0, 0.5], [1.2, 0.4], [1.1, 0.2], [1.6, 0.1]]) * MHZ
     a = y + 2 * MHZ
