@@ -79,13 +79,18 @@ def test_a_broken_response_file_is_refused_in_one_line_through_import_and_fit(
     assert not (tmp_path / "m.nc").exists()
 
 
+def _sparse(path: Path, size: int) -> Path:
+    """A file of ``size`` NUL bytes that takes no disk space (a hole)."""
+    with open(path, "wb") as fh:
+        fh.truncate(size)
+    return path
+
+
 def test_a_huge_file_is_refused_by_its_size_before_a_byte_is_read(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """A 2 GB sparse file of NUL bytes named .csv (no disk space used)."""
-    path = tmp_path / "huge.csv"
-    with open(path, "wb") as fh:
-        fh.truncate(2 * 1024**3)
+    path = _sparse(tmp_path / "huge.csv", 2 * 1024**3)
     opened: list[str] = []
     real_open = open
 
@@ -105,9 +110,7 @@ def test_a_large_file_of_nul_bytes_is_refused_after_its_first_block(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """100 MB of NUL bytes (under the size bound): only the first block is read."""
-    path = tmp_path / "zeros.csv"
-    with open(path, "wb") as fh:
-        fh.truncate(100 * 1024**2)
+    path = _sparse(tmp_path / "zeros.csv", 100 * 1024**2)
     read: list[int] = []
     real_open = open
 
