@@ -12,7 +12,8 @@ The package is built in rooms whose imports flow one way (``docs/architecture.md
 :mod:`~sysid_core.cli`. The names below are the public API.
 """
 
-from sysid_core import _compat
+# first, before the heavy imports: a Ctrl-C while ``sysid`` starts is one line (``_launch``)
+from sysid_core import _compat, _launch  # noqa: F401
 from sysid_core.api import fit, load_model, predict_bias, tune
 from sysid_core.data.schema import load_dataset, make_dataset, save_dataset, to_frd
 from sysid_core.data.validation import check_rank_condition, validate

@@ -263,6 +263,34 @@ def test_ctrl_c_exits_130_with_how_to_resume_and_resume_works(tmp_path: Path) ->
     assert json.loads((out / "summary.json").read_text())["iterations"] == 1
 
 
+@pytest.mark.parametrize("delay_s", [0.3, 0.8])
+def test_ctrl_c_while_the_program_starts_is_one_line_not_a_traceback(delay_s: float) -> None:
+    """The ``sysid`` script interrupted during its imports (numpy, xarray, the plugins): one
+    line, the interrupt's exit status, no traceback (sysid_core._launch)."""
+    from installing import default_sigint
+
+    script = Path(sys.executable).parent / "sysid"
+    if not script.exists():
+        pytest.skip("no sysid script next to this interpreter")
+    proc = subprocess.Popen(
+        [str(script), "--help"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=environment(),
+        preexec_fn=default_sigint,
+    )
+    time.sleep(delay_s)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    if proc.returncode == 0:
+        pytest.skip("the program had started before the interrupt (a fast machine)")
+    assert proc.returncode in (130, -signal.SIGINT), err
+    assert "Traceback" not in err and err.strip().splitlines() == [
+        "sysid: interrupted while starting; nothing was done"
+    ], err
+
+
 def test_a_failure_is_one_line_and_exit_1(tmp_path: Path) -> None:
     cfg = write_toml(tmp_path / "c.toml", tables(device={"fault": "raise", "on_call": 2}))
     done = sysid("tune", str(cfg), "--out", str(tmp_path / "run"), "--no-plots")
