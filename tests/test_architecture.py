@@ -348,7 +348,8 @@ def layer_violations(graph: Mapping[str, Iterable[str]]) -> list[str]:
                     found.append(f"{module} imports the package facade sysid_core")
                 continue
             if ROOMS[other] >= ROOMS[room]:
-                allowed = ", ".join(r for r, k in ROOMS.items() if k < ROOMS[room]) or "nothing"
+                lower = [r for r, k in ROOMS.items() if k < ROOMS[room] and not r.startswith("_")]
+                allowed = ", ".join(lower) or "nothing"
                 found.append(
                     f"{module} imports {target}: the {room} room may import only {allowed}"
                 )
