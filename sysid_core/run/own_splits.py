@@ -19,7 +19,7 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.conic.program import SYM_BASIS
-from sysid_core.identification.anchor import anchor, split_offset
+from sysid_core.identification.anchor import Anchor, anchor, split_offset
 from sysid_core.identification.splittrend import LAB_TREND, SplitForecast, TrendModel, forecast
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import mass_roots
@@ -64,8 +64,8 @@ def windows_forecast(
     own, anchored, times, variances, anchored_var = [], [], [], [], []
     for sweep, own_model in windows:
         own.append(_vector(split_offset(base, sweep, own_model), inv_root, scale))
-        alone = anchor(model, [sweep], rate=False)
-        anchored.append(_vector(alone.offset - frame.offset, inv_root, scale))
+        alone = frame.found if sweep is windows[-1][0] else anchor(model, [sweep], rate=False)
+        anchored.append(_vector(alone.offset - frame.found.offset, inv_root, scale))
         times.append(float(stamps(sweep).mean()))
         variances.append(max(split_variance(own_model), _FLOOR_HZ2))
         cov = alone.offset_covariance
@@ -110,16 +110,15 @@ _FLOOR_HZ2 = 1e-10
 class _Frame:
     """What the windows' splits are taken against: the model anchored on the latest window.
 
-    ``base`` is that model (no rate), ``offset`` its anchor's offset, ``inv_root`` ``M^{-1/2}``,
-    ``scale`` the (rad/s)² of the normalised deviation per Hz of split at the latest window's
-    own mean frequency, ``t_latest`` the middle of the latest window (seconds).
+    ``base`` is that model (no rate), ``found`` its anchor, ``inv_root`` ``M^{-1/2}``, ``scale``
+    the (rad/s)² of the normalised deviation per Hz of split at the latest window's own mean
+    frequency.
     """
 
     base: FittedModel
-    offset: np.ndarray
+    found: Anchor
     inv_root: np.ndarray
     scale: float
-    t_latest: float
 
     @classmethod
     def of(cls, model: FittedModel, windows: list[tuple[xr.Dataset, FittedModel]]) -> _Frame:
@@ -130,10 +129,9 @@ class _Frame:
         f = float(np.mean(windows[-1][1].modal_frequencies_hz([])))
         return cls(
             base=found.model_at(model, float(stamps(latest).max())),
-            offset=found.offset,
+            found=found,
             inv_root=inv_root,
             scale=4 * np.pi**2 * f,
-            t_latest=float(stamps(latest).mean()),
         )
 
 

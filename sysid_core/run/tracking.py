@@ -205,24 +205,7 @@ class Tracker:
         latest = float(measured.max()) if measured.size else found.t_ref
         at = max(found.t_ref, latest) + self.ahead_s()
         moved = found.model_at(model, at)
-        # a window whose fit has a mode none of its points came near does not give its own
-        # split: that mode may be a phantom (docs/drift-model.md)
-        usable = [
-            (w, own, s)
-            for w, own, s, unseen in zip(
-                self.windows, self.models, self.splits, self.blind, strict=True
-            )
-            if not unseen
-        ]
-        refused = len(self.windows) - len(usable)
-        near = [(w, own) for w, own, s in usable if s <= self.near_hz]
-        # the windows near degenerate modes while the latest is one of them; else the latest
-        # window that gives its own split, alone: far from degenerate modes, windows sit at
-        # biases between which the model's law misses more than the drift
-        if near and near[-1][0] is self.windows[-1]:
-            chosen_own = near
-        else:
-            chosen_own = [(w, own) for w, own, _ in usable[-1:]]
+        chosen_own, refused = self.filtered()
         self.forecast = None
         if chosen_own:
             offset, self.forecast = windows_forecast(model, moved, chosen_own, at)
@@ -259,30 +242,43 @@ class Tracker:
         )
         return moved
 
-    def end_split(self, model: FittedModel, sweep: xr.Dataset) -> tuple[float, float] | None:
-        """The split at the end of the latest window by the windows' forecast, or None.
+    def filtered(self) -> tuple[list[tuple[xr.Dataset, FittedModel]], int]:
+        """The windows the filter reads, and how many give no split of their own.
 
-        Its 95 % upper bound and its mean (Hz): the model anchored on the latest window gives
-        the split vector at that window's bias, the windows' filter what it misses there at the
-        window's last time stamp, with its variance; the bound is the Rice distribution's 95 %
-        point. None unless ``sweep`` is the latest window kept and gives a split of its own.
+        A window whose fit has a mode none of its points came near gives no split (that mode
+        may be a phantom, :func:`blind`). The windows near degenerate modes (under
+        ``near_hz``) while the latest is one of them; else the latest window that gives its own
+        split, alone: far from degenerate modes, windows sit at biases between which the
+        model's law misses more than the drift.
         """
-        if not self.windows or self.windows[-1] is not sweep or self.blind[-1]:
-            return None
-        latest = self.windows[-1]
-        near = [
-            (w, own)
+        usable = [
+            (w, own, s)
             for w, own, s, unseen in zip(
                 self.windows, self.models, self.splits, self.blind, strict=True
             )
-            if s <= self.near_hz and not unseen
+            if not unseen
         ]
-        chosen = near if near and near[-1][0] is latest else [(latest, self.models[-1])]
-        end = float(stamps(latest).max())
-        base = anchor(model, [latest], rate=False).model_at(model, end)
-        _, found = windows_forecast(model, base, chosen, end)
-        bias = np.asarray(latest.sel(electrode=list(model.electrodes))["bias"].values[0])
-        mean = float(np.hypot(*(split_vector_hz(base, bias) + found.vector_hz)))
+        near = [(w, own) for w, own, s in usable if s <= self.near_hz]
+        if near and near[-1][0] is self.windows[-1]:
+            return near, len(self.windows) - len(usable)
+        return [(w, own) for w, own, _ in usable[-1:]], len(self.windows) - len(usable)
+
+    def end_split(self, model: FittedModel, sweep: xr.Dataset) -> tuple[float, float] | None:
+        """The split at the end of the latest window by the windows' forecast, or None.
+
+        Its 95 % upper bound and its mean (Hz): ``model`` given the split vector the windows'
+        filter predicts at the window's last time stamp, at that window's bias, with the
+        filter's variance; the bound is the Rice distribution's 95 % point. None unless
+        ``sweep`` is the latest window kept and gives a split of its own.
+        """
+        if not self.windows or self.windows[-1] is not sweep or self.blind[-1]:
+            return None
+        chosen, _ = self.filtered()
+        end = float(stamps(sweep).max())
+        offset, found = windows_forecast(model, model, chosen, end)
+        at_end = dataclasses.replace(model, K0=np.asarray(model.K0) + offset)
+        bias = np.asarray(sweep.sel(electrode=list(model.electrodes))["bias"].values[0])
+        mean = float(np.hypot(*split_vector_hz(at_end, bias)))
         sigma = found.sigma_hz
         bound = float(rice.ppf(0.95, mean / sigma, scale=sigma)) if sigma > 0 else mean
         return bound, mean
