@@ -171,9 +171,7 @@ def main() -> None:
     """Parse the arguments, tune every gyro, print the row."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--bench", choices=sorted(BENCHES), default="lab")
-    parser.add_argument(
-        "--drift", default="none", choices=["auto", "none", "common", "offsets", "trend", "track"]
-    )
+    parser.add_argument("--drift", default="none", choices=["auto", "none", "track"])
     parser.add_argument("--seeds", default="101-124")
     parser.add_argument(
         "--iterations", type=int, default=4, help="max_iterations (4; 0: the default cap)"

@@ -65,8 +65,8 @@ LAW_CONDITION_LIMIT = 1e10
 #: in the uncontrolled lab (docs/drift.md, "Long runs"), the quadratic fits' Wald statistic
 #: rose over a run (6.5 to 58-94 against 13.3 on a 1.8 kHz gyro) while their slopes of the
 #: split in B1 and B2 left the truth's (50 % off; on another a sign turned, and its answers ran
-#: away to a 50 mHz split). An explicit ``drift = "trend"`` carries the trend from the second
-#: iteration on, where the quadratic law is still needed: it keeps the test.
+#: away to a 50 mHz split). A fit asked for the trend alone (``fit(data, drift="trend")``) keeps
+#: the test: its data may still need the quadratic law.
 TREND_LAW = "the fit carries the trend: linear law, the quadratic terms would take up drift"
 
 

@@ -39,7 +39,7 @@ from pydantic import BaseModel, ConfigDict, Field, StrictBool, ValidationError, 
 from sysid_core.errors import ConfigError
 from sysid_core.identification.objective import DEFAULT_OBJECTIVE
 from sysid_core.model.structures import DEFAULT_BIAS_TERMS, DEFAULT_ORDER, DEFAULT_STIFFNESS
-from sysid_core.run.driftpolicy import DriftPolicy
+from sysid_core.run.driftpolicy import REMOVED, DriftPolicy
 
 __all__ = ["PipelineConfig", "load_config", "parse_config", "read_toml"]
 
@@ -67,17 +67,16 @@ class ModelConfig(_Strict):
     that take them (``act``, ``sen``); ``bias_terms = 0`` and ``stiffness = "linear"`` are the
     paper's model. ``drift``: ``"auto"`` (default), ``"track"`` once the measurements carry
     time stamps (a bench with a clock) and ``"none"`` while they do not; ``"none"``;
-    ``"common"``, ``"offsets"`` or ``"trend"``, drift terms in the fit estimated from the
-    measurements' time stamps (:mod:`sysid_core.identification.drift`); ``"track"``, every
-    answer solved for the gyro as it will be at the next verification, the model anchored on
-    the latest verified windows (:mod:`sysid_core.run.tracking`). See docs/drift.md.
+    ``"track"``, every answer solved for the gyro as it will be at the next verification, the
+    model anchored on the latest verified windows (:mod:`sysid_core.run.tracking`). See
+    docs/drift-model.md (:mod:`sysid_core.run.driftpolicy`).
     """
 
     structure: str = "act"
     order: int = DEFAULT_ORDER
     bias_terms: int = DEFAULT_BIAS_TERMS
     stiffness: str = DEFAULT_STIFFNESS
-    drift: Literal["auto", "none", "common", "offsets", "trend", "track"] = "auto"
+    drift: Literal["auto", "none", "track"] = "auto"
     options: dict[str, Any] = Field(default_factory=dict)
 
     @property
@@ -309,6 +308,9 @@ def parse_config(data: dict[str, Any], source: str = "config") -> PipelineConfig
     for (table, key), where in _MOVED.items():
         if isinstance(data.get(table), dict) and key in data[table]:
             raise ConfigError(f"{source}: [{table}] {key} has moved to {where}")
+    drift = data.get("model", {}).get("drift") if isinstance(data.get("model"), dict) else None
+    if isinstance(drift, str) and drift in REMOVED:
+        raise ConfigError(f"{source}: {REMOVED[drift]}")
     try:
         return PipelineConfig.model_validate(data)
     except ValidationError as exc:

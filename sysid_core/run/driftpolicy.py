@@ -1,21 +1,21 @@
 """``[model] drift`` parsed once into what a run does about a drifting gyro (:class:`DriftPolicy`).
 
-The key's values and what each turns on:
+The key's values:
 
-===========  ======================================  ==============================
-value        the run tracks the gyro                 terms in the fit itself
-===========  ======================================  ==============================
-``auto``     on a bench with a clock (time stamps)   none
-``track``    always                                  none
-``none``     never                                   none
-``common``   never                                   a common frequency drift
-``offsets``  never                                   a stiffness offset per epoch
-``trend``    never                                   a stiffness trend in time
-===========  ======================================  ==============================
+===========  ===============================================================================
+value        the run tracks the gyro
+===========  ===============================================================================
+``auto``     on a bench with a clock (every measurement so far carried time stamps)
+``track``    always
+``none``     never: the gyro is fitted as if it were frozen
+===========  ===============================================================================
 
-Tracking (:mod:`sysid_core.run.tracking`) solves every answer for the gyro as it will be at
-its verification; the fit terms (:mod:`sysid_core.identification.drift`) are experimental. A
-tracking run's fit carries the trend over long spans (:mod:`sysid_core.run.fitter`).
+Tracking (:mod:`sysid_core.run.tracking`) solves every answer for the gyro as its windows'
+forecast (:mod:`sysid_core.identification.splittrend`) puts it at its verification; a tracking
+run's fit carries a stiffness trend over long spans (:mod:`sysid_core.run.fitter`). The drift
+terms that a fit of measured data may carry on its own (``sysid_core.api.fit(drift=...)``) are
+not run policies: the values ``common``, ``offsets`` and ``trend`` are refused with that advice
+(:data:`REMOVED`).
 """
 
 from __future__ import annotations
@@ -23,10 +23,22 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-__all__ = ["DRIFT_VALUES", "DriftPolicy"]
+__all__ = ["DRIFT_VALUES", "REMOVED", "DriftPolicy"]
 
 #: The values of ``[model] drift``.
-DRIFT_VALUES = ("auto", "none", "common", "offsets", "trend", "track")
+DRIFT_VALUES = ("auto", "none", "track")
+
+#: Former values of ``[model] drift`` (fit terms, now only in ``sysid_core.api.fit``), and the
+#: advice a configuration that still names one gets.
+REMOVED = {
+    value: (
+        f'[model] drift = "{value}" is no longer a run policy: a run on a bench with a clock '
+        'tracks the drifting gyro with drift = "auto" (the default) or "track" '
+        "(docs/drift-model.md); to fit the drift terms to measured data, use "
+        f'sysid_core.api.fit(data, drift="{value}")'
+    )
+    for value in ("common", "offsets", "trend")
+}
 
 Tracks = Literal["on a clock", "always", "never"]
 
@@ -37,9 +49,6 @@ class DriftPolicy:
 
     value: str
     tracks: Tracks
-    common: bool = False
-    offsets: bool = False
-    trend: bool = False
 
     @classmethod
     def parse(cls, value: str) -> DriftPolicy:
@@ -48,20 +57,16 @@ class DriftPolicy:
         Raises
         ------
         ValueError
-            Naming the values allowed.
+            Naming the values allowed (or, for a former value, what to use instead).
         """
+        if value in REMOVED:
+            raise ValueError(REMOVED[value])
         if value not in DRIFT_VALUES:
             raise ValueError(f"drift {value!r} is not one of {', '.join(DRIFT_VALUES)}")
         tracks: Tracks = (
             "on a clock" if value == "auto" else "always" if value == "track" else "never"
         )
-        return cls(
-            value,
-            tracks,
-            common=value == "common",
-            offsets=value == "offsets",
-            trend=value == "trend",
-        )
+        return cls(value, tracks)
 
     @property
     def may_track(self) -> bool:

@@ -1,8 +1,8 @@
 """The run's fitter: its structure, objective and solver, one call per data set.
 
 A run that tracks the gyro (``[model] drift = "track"``, or ``"auto"`` on a bench with a clock)
-fits its sweeps with the stiffness trend of ``drift = "trend"`` (a stiffness changing linearly
-in time, :mod:`sysid_core.identification.drift`) once they span more than
+fits its sweeps with a stiffness trend (a stiffness changing linearly in time, the ``trend``
+term of :mod:`sysid_core.identification.drift`) once they span more than
 :data:`TREND_SPAN_S`. A slow gyro's run (1-4 kHz in the uncontrolled lab of docs/drift.md:
 windows of 5-50 minutes, runs of hours) otherwise fits hours of charging as if the bias had
 done it: a 2.6 kHz gyro saw its quadratic terms grow threefold over ten iterations
@@ -18,7 +18,7 @@ three draws within 2 mHz, against 253 with the law test).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import xarray as xr
@@ -45,25 +45,15 @@ TREND_SPAN_S = 3600.0
 class Fitter:
     """Fits with the run's components (built once, from the run's registry).
 
-    With ``drift``, the fits of several sweeps estimate a common frequency drift from the time
-    stamps (:mod:`sysid_core.identification.drift`); the last rate found (:attr:`rate`,
-    relative per second) is then undone in the fits of single sweeps (a verification), whose
-    model is the gyro at the sweep's last point.
+    ``tracked``: the run tracks the gyro, and its fits of sweeps over more than
+    :data:`TREND_SPAN_S` carry the stiffness trend (see the module).
     """
 
     structure: ModelStructure
     objective: Objective
     solver: Solver
-    drift: bool = False
-    rate: float = field(default=0.0)
-    offsets: bool = False
-    trend: bool = False
-    #: The mass matrix of the last fit: the shape of the common offsets.
-    mass_shape: np.ndarray | None = None
     #: The structure on the other side, for :meth:`twin`.
     twin_structure: ModelStructure | None = None
-    #: The run tracks the gyro: fits of sweeps over more than :data:`TREND_SPAN_S` carry the
-    #: stiffness trend (see the module).
     tracked: bool = False
 
     @classmethod
@@ -77,31 +67,16 @@ class Fitter:
     ) -> Fitter:
         """The fitter of a run whose ``[model] drift`` is ``drift`` (parsed, or its value)."""
         policy = drift if isinstance(drift, DriftPolicy) else DriftPolicy.parse(drift)
-        return cls(
-            structure,
-            objective,
-            solver,
-            drift=policy.common,
-            offsets=policy.offsets,
-            trend=policy.trend,
-            twin_structure=twin_structure,
-            tracked=policy.may_track,
-        )
-
-    def _epochs(self, ds: xr.Dataset) -> int:
-        return len(np.unique(ds["epoch"].values)) if "epoch" in ds.coords else 1
+        return cls(structure, objective, solver, twin_structure, tracked=policy.may_track)
 
     def trend_for(self, ds: xr.Dataset) -> bool:
         """Whether a fit of ``ds`` carries the stiffness trend.
 
-        With ``drift = "trend"``, or in a tracking run whose sweeps (of several iterations, with
-        time stamps) span more than :data:`TREND_SPAN_S`.
+        In a tracking run, when its sweeps (of several iterations, with time stamps) span more
+        than :data:`TREND_SPAN_S`.
         """
-        if self._epochs(ds) < 2:
-            return False
-        if self.trend:
-            return True
-        if not (self.tracked and has_time_stamps(ds)):
+        epochs = len(np.unique(ds["epoch"].values)) if "epoch" in ds.coords else 1
+        if epochs < 2 or not (self.tracked and has_time_stamps(ds)):
             return False
         return (stamps_span_s(ds) or 0.0) > TREND_SPAN_S
 
@@ -109,41 +84,18 @@ class Fitter:
         self, ds: xr.Dataset, structure: ModelStructure | None = None
     ) -> tuple[FittedModel, list[str]]:
         """The model of ``ds`` and the notes of the fit (reasons to distrust it)."""
-        found = fit_structure(
+        return fit_structure(
             ds,
             structure or self.structure,
             self.objective,
             self.solver,
-            drift=self.drift,
-            offsets=self.offsets,
             trend=self.trend_for(ds),
-            mass_shape=self.mass_shape,
             linear_trend=self.tracked,
         )
-        self.mass_shape = found[0].M
-        rate = found[0].meta.get("drift_rate_per_h")
-        if self.drift and rate is not None:
-            self.rate = float(rate) / 3600.0
-        return found
 
     def model(self, ds: xr.Dataset, structure: ModelStructure | None = None) -> FittedModel:
-        """The model of ``ds`` alone, for a guess (no notes; the last drift rate, not a search).
-
-        Guesses of where the modes are come often; searching the drift rate again for each
-        would repeat 6-10 fits that the run's own fits already made.
-        """
-        found, _ = fit_structure(
-            ds,
-            structure or self.structure,
-            self.objective,
-            self.solver,
-            drift=self.rate or False,
-            offsets=self.offsets,
-            trend=self.trend_for(ds),
-            mass_shape=self.mass_shape,
-            linear_trend=self.tracked,
-        )
-        return found
+        """The model of ``ds``, for a guess of where the modes are (without the fit's notes)."""
+        return self.fit(ds, structure)[0]
 
     def window(self, sweep: xr.Dataset, band: bool) -> tuple[FittedModel, WindowAssessment]:
         """A single sweep's model and the evidence that it shows both modes.
@@ -152,25 +104,14 @@ class Fitter:
         """
         single = sweep.isel(electrode=[])
         if band:
-            model, _ = fit_structure(
-                single, self.structure, self.objective, self.solver, drift=self.rate or False
-            )
+            model, _ = fit_structure(single, self.structure, self.objective, self.solver)
         else:  # a narrow window measures the split: weighted as its noise enters (refit)
-            model, _ = refit(
-                single, self.structure, self.objective, self.solver, drift=self.rate or False
-            )
+            model, _ = refit(single, self.structure, self.objective, self.solver)
         return model, assess_window(sweep, model, band=band)
 
     def found(self, model: FittedModel) -> list[str]:
-        """What a fit of this fitter found, for the run's progress: drift, law, trend."""
+        """What a fit of this fitter found, for the run's progress: the law and the trend."""
         lines, meta = [], model.meta
-        rate = meta.get("drift_rate_per_h")
-        if rate is not None:
-            hz = float(rate) * model.omega_center / (2 * np.pi)
-            lines.append(
-                f"drift {hz * 1e3:+.4g} mHz/h common ({float(rate) * 1e6:+.3g} ppm/h, from the "
-                "time stamps)"
-            )
         law = meta.get("stiffness_law")
         if law is not None and not meta.get("from_model"):
             stat, limit = meta.get("law_statistic"), meta.get("law_threshold")

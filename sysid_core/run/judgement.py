@@ -20,7 +20,7 @@ gives no split of its own) two goals stand for it, and join the criterion's
   run then goes on instead of claiming convergence.
 * ``split at the end (drift)`` <= acceptance: when the model carries a stiffness trend in time
   (a tracked run's moved model: the split's rate its windows estimate,
-  :func:`sysid_core.run.own_splits.with_split_rate`; or ``[model] drift = "trend"``), the
+  :func:`sysid_core.run.own_splits.with_split_rate`), the
   measured split plus what the split's drift can add
   between the middle of the window and its end (the run's end). :func:`holds_s` says how long
   the tuning stays under the acceptance at that rate. When that drift alone, over the half

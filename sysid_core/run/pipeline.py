@@ -296,9 +296,6 @@ class TuningRun:
         for note in notes:  # notes of this run, not user warnings
             self.notes.append(f"iteration {it}: {note}")
             self.say(f"iteration {it}: note: {note}")
-        rate = model.meta.get("drift_rate_per_h")
-        if rate is not None:
-            self.drift_hz_per_h = float(rate) * model.omega_center / (2 * np.pi)
         for line in self.fitter.found(model):
             self.say(f"iteration {it}: {line}")
         model.save(folder / "model.nc")

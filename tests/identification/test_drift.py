@@ -1,4 +1,5 @@
-"""A common frequency drift estimated from time stamps (``[model] drift = "common"``).
+"""A common frequency drift estimated from time stamps: by a fit's drift terms
+(``sysid_core.api.fit(drift=...)``), and by a run that tracks the gyro (``[model] drift``).
 
 Truth: the simulated bench's temperature ramp moves every frequency by ``tempco · ΔT``, so the
 rate is ``−30 ppm/K × ramp``; a fit that undoes it describes the gyro at the latest time stamp.
@@ -23,7 +24,7 @@ RAMP_K_PER_H = 1.5
 RATE_PER_H = -30e-6 * RAMP_K_PER_H  # the truth: −45 ppm/h
 F = np.linspace(4385.0, 4445.0, 121)
 MAIN_JOB = {
-    "model": {"drift": "common"},
+    "model": {"drift": "auto"},
     "tuning": {
         "criterion": "degenerate",
         "electrodes": ["B1", "B2"],
@@ -64,7 +65,7 @@ def test_data_without_time_stamps_are_fitted_without_drift_and_say_so() -> None:
     assert "drift_rate_per_h" not in model.meta
 
 
-def test_a_run_on_a_ramp_is_tuned_and_reports_the_drift(tmp_path: Path) -> None:
+def test_a_run_on_a_ramp_tracks_the_gyro_and_reports_the_drift(tmp_path: Path) -> None:
     device = CloverleafGyro(seed=1, bench={"clock": True, "temperature_ramp_k_per_h": RAMP_K_PER_H})
     lines: list[str] = []
     config = {"device": {"name": "cloverleaf", "seed": 1}, **MAIN_JOB}
@@ -73,7 +74,7 @@ def test_a_run_on_a_ramp_is_tuned_and_reports_the_drift(tmp_path: Path) -> None:
     assert result.converged and truth[1] - truth[0] < 0.002
     expected = RATE_PER_H * truth.mean()  # Hz per hour
     assert result.drift_common_hz_per_h == pytest.approx(expected, rel=0.2)
-    assert any("drift" in line and "ppm/h" in line for line in lines)
+    assert any("mHz/h common" in line for line in lines)
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert summary["drift_common_hz_per_h"] == pytest.approx(result.drift_common_hz_per_h)
 
@@ -81,6 +82,16 @@ def test_a_run_on_a_ramp_is_tuned_and_reports_the_drift(tmp_path: Path) -> None:
 def test_the_drift_key_is_checked() -> None:
     with pytest.raises(ConfigError, match="drift"):
         parse_config({"device": {"name": "cloverleaf"}, "model": {"drift": "sometimes"}})
+
+
+@pytest.mark.parametrize("former", ["common", "offsets", "trend"])
+def test_the_former_fit_terms_are_not_run_policies(former: str) -> None:
+    """The fit's drift terms stay in ``fit``; a run configuration naming one is told where."""
+    config = {"device": {"name": "cloverleaf"}, "model": {"drift": former}}
+    with pytest.raises(ConfigError, match=rf'config: \[model\] drift = "{former}" is no longer'):
+        parse_config(config)
+    with pytest.raises(ConfigError, match=rf'fit\(data, drift="{former}"\)'):
+        parse_config(config)
 
 
 # --------------------------------------------------------------------------- offsets and trend

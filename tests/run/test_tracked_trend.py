@@ -103,7 +103,6 @@ def _two_epochs(span_s: float, stamped: bool = True) -> xr.Dataset:
         ("track", 0.5 * TREND_SPAN_S, True, False),
         ("auto", 2 * TREND_SPAN_S, False, False),  # a frozen bench: no time, no trend
         ("none", 2 * TREND_SPAN_S, True, False),
-        ("trend", 0.5 * TREND_SPAN_S, True, True),  # asked for: whatever the span
     ],
 )
 def test_when_a_fit_carries_the_trend(
@@ -136,9 +135,7 @@ def test_a_fit_that_carries_the_trend_keeps_the_linear_law(tmp_path: Path) -> No
 def test_only_a_tracked_fit_keeps_the_linear_law_under_the_trend(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """An explicit ``drift = "trend"`` carries the trend from the second iteration on, where a
-    gyro's quadratic law is still being measured: its fits keep the law test (a good lab, gyros
-    101-124, 4 iterations: 18 of 24 within 2 mHz with the linear law there, 24 with the test)."""
+    """A run that does not track the gyro fits with the law test."""
     seen: list[bool] = []
 
     def fake(*args: object, **kwargs: object) -> tuple[object, list[str]]:
@@ -147,13 +144,13 @@ def test_only_a_tracked_fit_keeps_the_linear_law_under_the_trend(
 
     monkeypatch.setattr("sysid_core.run.fitter.fit_structure", fake)
     reg = get_registry()
-    for drift in ("track", "auto", "trend", "none"):
+    for drift in ("track", "auto", "none"):
         fitter = Fitter.of(
             drift, reg.structure("act"), reg.objective("least-squares"), reg.solver("clarabel")
         )
         with pytest.raises(_Stop):
             fitter.fit(_two_epochs(2 * TREND_SPAN_S))
-    assert seen == [True, True, False, False]
+    assert seen == [True, True, False]
 
 
 class _Stop(Exception):
