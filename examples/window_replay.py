@@ -7,7 +7,7 @@ For every gyro of a population run (its folder, of ``examples/drift_population.p
 folders make one table; ``--draw`` the draw they were run with) and every iteration after which
 the run's latest verified window and at least one earlier one measured a split under ten
 acceptances
-(:data:`sysid_core.run.tracking.NEAR_ACCEPTANCES`), each way below predicts the split *vector*
+(:data:`sysid_core.drift.tracker.NEAR_ACCEPTANCES`), each way below predicts the split *vector*
 at the next verification's bias and middle time, and a replica of the run's device gives the
 TRUE one there (charging and the ramp are functions of the clock; the replica's temperature walk
 is another draw, and the simulated temperature scales the whole stiffness, which leaves the split
@@ -17,7 +17,7 @@ in Hz, its direction the modes' orientation. The ways:
 
 * ``tracker``: the run's own answer model (the next iteration's ``model-now.nc``: its fit
   anchored on up to four windows, moved by the split its windows predict;
-  :class:`sysid_core.run.tracking.Tracker`);
+  :class:`sysid_core.drift.tracker.Tracker`);
 * ``anchor``: the next iteration's fit anchored on the latest window alone;
 * ``latest``: that, given the latest window's own split
   (:func:`sysid_core.identification.anchor.split_offset`), always;
@@ -26,7 +26,7 @@ in Hz, its direction the modes' orientation. The ways:
 * ``weighted-60s``: their mean over every window, weighted by ``exp(−age / 60 s)``;
 * ``rate``: a straight line in time through every window's, taken to the next window's time;
 * ``filter``: the run's estimator on the same windows
-  (:func:`sysid_core.run.own_splits.windows_forecast`: one Kalman filter on a line in time
+  (:func:`sysid_core.drift.forecast.windows_forecast`: one Kalman filter on a line in time
   through each window's own split and its anchored one, each with its fit's variance);
 * ``filter-NAME``: a variant of it given with ``--trend`` (another trend model, every window
   with one noise, or without the anchored measurements);
@@ -62,12 +62,12 @@ from drift_population import make_device
 
 from sysid_core.api import load_model
 from sysid_core.data.schema import load_dataset
+from sysid_core.drift.forecast import _vector, split_variance, windows_forecast
+from sysid_core.drift.tracker import NEAR_ACCEPTANCES
 from sysid_core.identification.anchor import anchor, split_offset
 from sysid_core.identification.splittrend import TrendModel, forecast
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import mass_roots, normalised_stiffness, trace_deviation
-from sysid_core.run.own_splits import _vector, split_variance, windows_forecast
-from sysid_core.run.tracking import NEAR_ACCEPTANCES
 
 #: ``--trend`` variants of the filter: name to (model, fixed window noise in Hz or 0 for each
 #: window's own variance, anchored measurements' variance over the own ones or 0 for none).

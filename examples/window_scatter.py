@@ -10,7 +10,7 @@ true split is nearest ``--split`` mHz (2, the population's acceptance), chosen a
 each window near the last (the drifts move it): ``quiet`` (60 dB, a clock, no drift), ``lab``
 (the uncontrolled lab of drift_population.py), and the lab without one of its drifts (``lab
 -walk``, ``-ramp``, ``-charging``, ``-wander``). Each window is fitted as the run fits a
-verification (:meth:`sysid_core.run.fitter.Fitter.window`: refitted with weights ``1/‖Z‖``), and
+verification (:meth:`sysid_core.measure.fitter.Fitter.window`: refitted with weights ``1/‖Z‖``), and
 its split is compared with the TRUE split over the window (the mean of the true splits before
 and after it). ``--design uniform`` measures the same number of points spread evenly over ±2 of
 the wider bandwidth instead, ``--design core`` keeps the window's 4 far points and spreads the

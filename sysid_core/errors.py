@@ -139,7 +139,7 @@ class BudgetSpentError(SysidError, RuntimeError):
     """The run's bench-time budget (``[tuning] max_bench_minutes``) is spent.
 
     Raised before a measurement that would end past it; a run that has verified an answer
-    ends with it instead (:mod:`sysid_core.run.budget`).
+    ends with it instead (:mod:`sysid_core.clock.budget`).
     """
 
 

@@ -3,7 +3,7 @@
 Beside the attributes every device has (:class:`~sysid_core.device.protocol.Device`), a device
 may state what it knows of its own bench. Each is optional; a device that does not have the
 attribute, or has it set to ``None``, does not state it and the run falls back to the
-configuration or to an estimate (:mod:`sysid_core.run.benchtime`). A device that states one
+configuration or to an estimate (:mod:`sysid_core.clock.benchtime`). A device that states one
 with a value it cannot mean (a ``tones`` of 0, a negative or NaN ``dwell_s``) is refused before
 the first measurement, in one line naming the attribute, instead of being silently ignored.
 

@@ -5,7 +5,7 @@
 * :func:`principal_part`: the response's two resonances as ``Cc (sI - T)^-1 Bc``, exactly, with
   the polynomial ``P`` continued to the poles. Used to realise a model as a state-space system
   (:mod:`sysid_core.model.export`) and to tell whether a mode shows in a measurement
-  (:mod:`sysid_core.run.verification`).
+  (:mod:`sysid_core.measure.verification`).
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ __all__ = [
     "normalised_stiffness",
     "principal_part",
     "snr_loss_db",
+    "split_vector_hz",
     "trace_deviation",
 ]
 
@@ -351,3 +352,16 @@ def degenerate_pair_bias(
     sign = 1.0 if structure_potential >= 0.0 else -1.0
     with np.errstate(invalid="ignore"):
         return structure_potential - sign * np.sqrt(w)
+
+
+def split_vector_hz(mass: np.ndarray, stiffness: np.ndarray) -> np.ndarray:
+    """The split vector (Hz) of a gyro of ``mass`` and ``stiffness`` (2×2): length the split.
+
+    The traceless part ``d`` of ``M^{-1/2} K M^{-1/2}`` (eigenvalues ``t ± |d|``), as
+    ``d / (2π √t)``.
+    """
+    ns = normalised_stiffness(
+        np.asarray(mass, dtype=float)[None], np.asarray(stiffness, dtype=float)[None]
+    )
+    t, d = trace_deviation(ns[0])
+    return np.asarray(d, dtype=float) / (2 * np.pi * np.sqrt(max(float(t), 1e-300)))

@@ -38,7 +38,7 @@ class Components:
     criterion: TuningCriterion
     #: The structure on the other side (``sen`` for ``act`` and back), built with the same
     #: options, or None: the run checks with it that a converging window fits the configured
-    #: one (:func:`sysid_core.run.judgement.twin_goal`).
+    #: one (:func:`sysid_core.verdict.judgement.twin_goal`).
     twin: ModelStructure | None = None
 
 

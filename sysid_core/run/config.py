@@ -36,10 +36,11 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, ValidationError, field_validator
 
+from sysid_core.drift.policy import REMOVED, DriftPolicy
 from sysid_core.errors import ConfigError
 from sysid_core.identification.objective import DEFAULT_OBJECTIVE
+from sysid_core.measure.sweeps import SweepPlan
 from sysid_core.model.structures import DEFAULT_BIAS_TERMS, DEFAULT_ORDER, DEFAULT_STIFFNESS
-from sysid_core.run.driftpolicy import REMOVED, DriftPolicy
 
 __all__ = ["PipelineConfig", "load_config", "parse_config", "read_toml"]
 
@@ -68,8 +69,8 @@ class ModelConfig(_Strict):
     paper's model. ``drift``: ``"auto"`` (default), ``"track"`` once the measurements carry
     time stamps (a bench with a clock) and ``"none"`` while they do not; ``"none"``;
     ``"track"``, every answer solved for the gyro as it will be at the next verification, the
-    model anchored on the latest verified windows (:mod:`sysid_core.run.tracking`). See
-    docs/drift-model.md (:mod:`sysid_core.run.driftpolicy`).
+    model anchored on the latest verified windows (:mod:`sysid_core.drift.tracker`). See
+    docs/drift-model.md (:mod:`sysid_core.drift.policy`).
     """
 
     structure: str = "act"
@@ -127,7 +128,7 @@ class TuningConfig(_Strict):
 
     ``max_bench_minutes`` bounds the run by the bench clock (the device's time stamps, else the
     estimated bench time): no measurement starts that would end past it; unset, it is the
-    larger of an hour and 1200 dwells of the gyro (:mod:`sysid_core.run.budget`).
+    larger of an hour and 1200 dwells of the gyro (:mod:`sysid_core.clock.budget`).
     ``max_iterations`` only caps the iterations (default 24); no verdict depends on it.
     """
 
@@ -184,7 +185,7 @@ class ExperimentConfig(_Strict):
     12 with 1 V, 0.1 V was worse than 0.25 V (noise).
 
     ``protocol`` (default ``"lean"``) decides where the sweeps go. ``"lean"``
-    (:mod:`sysid_core.run.lean`): the whole band only to locate the modes (at most 61 points),
+    (:mod:`sysid_core.measure.lean`): the whole band only to locate the modes (at most 61 points),
     every other sweep only around where the modes are known or predicted to be, and every sweep
     of the run reused by later fits; iterations after the first measure nothing but the
     verification while it agrees with the model (inside the predicted 95 % range, and
@@ -207,11 +208,11 @@ class ExperimentConfig(_Strict):
     shows both modes and its noise is under 2 % of its response) it stands as the locating
     sweep, the first design is one-sided under the ``auto`` law, and scouts step as the probe
     does; on a noisy one the whole locating sweep and a two-sided design follow
-    (:mod:`sysid_core.run.locating`). With a clock (docs/bench-time.md) the cloverleaf reaches
+    (:mod:`sysid_core.measure.locating`). With a clock (docs/bench-time.md) the cloverleaf reaches
     a true split of 1 mHz in a median of 14.4 minutes with one tone instead of 30.0.
 
     ``max_passes`` (default 1: never repeat) bounds how many passes of a verification window
-    are averaged when its noise hides the split (:mod:`sysid_core.run.passes`): for a bench of
+    are averaged when its noise hides the split (:mod:`sysid_core.measure.passes`): for a bench of
     low SNR whose drift is slow (docs/drift.md, "Averaging a window").
 
     ``max_points`` (default 20 000) bounds the points of any sweep: a resolution typed wrong
@@ -250,6 +251,23 @@ class ExperimentConfig(_Strict):
         if v is not None and not (math.isfinite(v[0]) and math.isfinite(v[1]) and 0 < v[0] < v[1]):
             raise ValueError(f"must be [low, high] in Hz with 0 < low < high, got [{v[0]}, {v[1]}]")
         return v
+
+    def sweep_plan(self, device_band_hz: Sequence[float], tones: int = 1) -> SweepPlan:
+        """The sweeps' plan of this table for a device, checked.
+
+        The device's ``band_hz``, and its ``tones`` (frequencies per acquisition).
+        """
+        band = (float(device_band_hz[0]), float(device_band_hz[1]))
+        return SweepPlan(
+            band_hz=self.band_hz if self.band_hz is not None else band,
+            resolution_hz=self.resolution_hz,
+            refine_span_hz=self.refine_span_hz,
+            refine_resolution_hz=self.refine_resolution_hz,
+            verify_span_hz=self.verify_span_hz,
+            verify_resolution_hz=self.verify_resolution_hz,
+            max_points=self.max_points,
+            tones=max(int(tones), 1),
+        ).check(band)
 
 
 class PipelineConfig(_Strict):

@@ -7,12 +7,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sysid_core.clock.bench import Bench
+from sysid_core.clock.budget import DEFAULT_MAX_ITERATIONS
 from sysid_core.data.validation import check_rank_condition
-from sysid_core.run.bench import Bench
-from sysid_core.run.budget import DEFAULT_MAX_ITERATIONS
+from sysid_core.measure.fitter import Fitter
+from sysid_core.measure.sweeps import SweepPlan, design_experiments
 from sysid_core.run.config import PipelineConfig
-from sysid_core.run.fitter import Fitter
-from sysid_core.run.sweeps import SweepPlan, design_experiments
 from sysid_core.tuning.criteria import BiasSpace
 
 __all__ = ["RunContext"]
@@ -33,17 +33,26 @@ class RunContext:
     fitter: Fitter
     say: Callable[[str], None]
     #: How many iterations the run can still start (the bench-time budget's,
-    #: :meth:`sysid_core.run.budget.Budget.iterations_left`); None: the cap's alone.
+    #: :meth:`sysid_core.clock.budget.Budget.iterations_left`); None: the cap's alone.
     afford: Callable[[], int] | None = None
 
     def left(self) -> int:
         """Iterations the run can still start, this one included if it has not measured yet.
 
-        What the verdicts that look ahead count (:func:`sysid_core.run.contraction.too_slow`).
+        What the verdicts that look ahead count (:func:`sysid_core.measure.contraction.too_slow`).
         """
         if self.afford is not None:
             return self.afford()
         return self.config.tuning.max_iterations or DEFAULT_MAX_ITERATIONS
+
+    @property
+    def passes(self) -> tuple[float, int, float | None]:
+        """What bounds a window's repeated passes (:mod:`sysid_core.measure.passes`).
+
+        The acceptance (Hz), ``[experiment] max_passes`` and ``dwell_s``.
+        """
+        exp = self.config.experiment
+        return self.config.tuning.acceptance_hz, exp.max_passes, exp.dwell_s
 
     def step(self, it: int) -> float:
         """The bias step of iteration ``it`` (volts)."""
@@ -55,7 +64,7 @@ class RunContext:
 
         The design is two-sided unless the law is linear or the design says otherwise, or the
         law is ``auto`` and ``quiet`` (a quiet bench's first design,
-        :mod:`sysid_core.run.locating`).
+        :mod:`sysid_core.measure.locating`).
         """
         exp, law = self.config.experiment, self.config.model.stiffness
         sided = law != "linear" and not (quiet and law == "auto")

@@ -4,27 +4,27 @@
    current bias, checked against the rank condition (6), measured where the protocol says
    (the paper's full sweeps, or the lean protocol's points where the modes are), and one
    bias-dependent model fitted to them.
-2. Answer (:mod:`sysid_core.run.answer`): the criterion's bias, the DAC code the model predicts
+2. Answer (:mod:`sysid_core.verdict.answer`): the criterion's bias, the DAC code the model predicts
    best, and its confidence region, where the run's measurements support it
-   (:mod:`sysid_core.run.trust`). A goal unreachable inside the limits ends the run with
+   (:mod:`sysid_core.verdict.trust`). A goal unreachable inside the limits ends the run with
    :class:`~sysid_core.errors.UnreachableTuningError`, unless iterations remain and the best
    reachable bias is more than ``bias_step`` away: a model identified there decides.
-3. Verify at the new bias (:mod:`sysid_core.run.verification`): a split counts as measured only
+3. Verify at the new bias (:mod:`sysid_core.measure.verification`): a split counts as measured only
    when the evidence says both modes are in a window that resolves them.
 4. Report (:mod:`sysid_core.run.summary`): the iteration's record, ``summary.json`` and plots.
 
 The run converges when a verification is *verified* and every goal of the criterion is met (the
 split under ``acceptance_hz``; for ``target``, also the frequency error). Otherwise it goes on
 from the new bias until the bench-time budget is spent (``[tuning] max_bench_minutes``: no
-measurement starts that would end past it, :mod:`sysid_core.run.budget`) or ``max_iterations``
+measurement starts that would end past it, :mod:`sysid_core.clock.budget`) or ``max_iterations``
 (a cap) is reached.
 
 Everything is checked before the first measurement: the configuration, every plugin (built
 here), the device's protocol attributes, the bias limits, the sweeps and the first design. Every
 measurement is checked (:mod:`sysid_core.device.measuring`) and written to the run folder
 (:mod:`sysid_core.data.runfolder`) before anything else is done with it
-(:class:`~sysid_core.run.bench.Bench`). A run that stops can be continued with ``resume=True``:
-the loop is replayed and every measurement on disk is read instead of measured again.
+(:class:`~sysid_core.clock.bench.Bench`). A run that stops can be continued with
+``resume=True``: the loop is replayed and every measurement on disk is read, not measured again.
 """
 
 from __future__ import annotations
@@ -36,32 +36,31 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from sysid_core.clock.bench import Bench
+from sysid_core.clock.benchtime import tones
+from sysid_core.clock.budget import Budget, minutes
+from sysid_core.clock.runclock import RunClock
 from sysid_core.data.io import write_json
 from sysid_core.data.runfolder import RunFolder
 from sysid_core.device.measuring import GuardedDevice, check_bias
 from sysid_core.device.protocol import Device, ReportsProgress
+from sysid_core.drift.tracker import Tracker
 from sysid_core.errors import BudgetSpentError, ConfigError
 from sysid_core.identification.objective import Progress
+from sysid_core.measure.fitter import Fitter
+from sysid_core.measure.previous import check_prior
+from sysid_core.measure.verification import Verification
 from sysid_core.model.fitted import FittedModel
 from sysid_core.plugin.registry import Registry, get_registry
-from sysid_core.run.answer import Answer, answer
-from sysid_core.run.bench import Bench
-from sysid_core.run.benchtime import tones
-from sysid_core.run.budget import Budget, minutes
-from sysid_core.run.clock import RunClock
 from sysid_core.run.components import build_components
 from sysid_core.run.config import PipelineConfig
-from sysid_core.run.fitter import Fitter
-from sysid_core.run.judgement import verdict
 from sysid_core.run.plots import PLOT_FORMATS, plot_bias_path, plot_iteration
-from sysid_core.run.previous import check_prior
 from sysid_core.run.protocols import RunContext, make_protocol
 from sysid_core.run.summary import IterationRecord, Least, RunSummary, summarize, verified_splits
-from sysid_core.run.sweeps import SweepPlan
 from sysid_core.run.timeline import plot_timeline
-from sysid_core.run.tracking import Tracker
-from sysid_core.run.verification import Verification
 from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion
+from sysid_core.verdict.answer import Answer, answer
+from sysid_core.verdict.judgement import verdict
 
 __all__ = ["TuningRun"]
 
@@ -154,15 +153,19 @@ class TuningRun:
         #: The bench clock: what the measurements cost, what the run spent and may spend.
         self.clock = RunClock(
             self.bench,
-            config.experiment,
+            (config.experiment.dwell_s, config.experiment.settle_s),
             Budget(config.tuning.max_bench_minutes, config.tuning.max_iterations),
         )
-        self.fitter = Fitter.of(
-            config.model.policy, self.structure, self.objective, self.solver, parts.twin
+        self.fitter = Fitter(
+            self.structure,
+            self.objective,
+            self.solver,
+            parts.twin,
+            tracked=config.model.policy.may_track,
         )
         #: The verified windows and the model moved ahead (``drift = "track"`` or ``"auto"``).
         self.tracker = Tracker.of(config.model.policy, config.tuning.acceptance_hz)
-        plan = SweepPlan.from_config(config.experiment, dev.band_hz, tones=acquisition_tones)
+        plan = config.experiment.sweep_plan(dev.band_hz, tones=acquisition_tones)
         context = RunContext(
             config,
             self.space,

@@ -6,9 +6,9 @@ A protocol decides what each iteration measures and fits, and how it verifies an
   measures the design of eq. (18) over the band (then a window around the modes the previous
   verification measured) and fits it alone.
 * :class:`LeanProtocol` (the default): points where the modes are; every sweep is kept
-  (:class:`~sysid_core.run.knowledge.Knowledge`) and fitted again while the verifications agree
+  (:class:`~sysid_core.measure.knowledge.Knowledge`) and fitted again while the verifications agree
   with the model of all of them, the sweeps near the bias once they do not
-  (:mod:`sysid_core.run.lean`).
+  (:mod:`sysid_core.measure.lean`).
 
 Both share :class:`RunContext`: the bench, the fitter, the sweeps' plan, the experiment design
 and the progress callback.
@@ -22,15 +22,13 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from sysid_core.clock.benchtime import settle as settle_s
 from sysid_core.data.schema import concat_experiments, point_times
 from sysid_core.errors import ConfigError
-from sysid_core.model.fitted import FittedModel
-from sysid_core.run.benchtime import settle as settle_s
-from sysid_core.run.context import RunContext
-from sysid_core.run.contraction import too_slow
-from sysid_core.run.evidence import WindowAssessment
-from sysid_core.run.knowledge import Knowledge
-from sysid_core.run.lean import (
+from sysid_core.measure.contraction import too_slow
+from sysid_core.measure.evidence import WindowAssessment
+from sysid_core.measure.knowledge import Knowledge
+from sysid_core.measure.lean import (
     EXPLAIN_FLOOR_HZ,
     FINE_STEP,
     LOCAL_RADIUS,
@@ -41,12 +39,14 @@ from sysid_core.run.lean import (
     motion_allowance,
     scout_grid,
 )
-from sysid_core.run.locating import locate as locate_modes
-from sysid_core.run.locating import probe_first, probe_points
-from sysid_core.run.passes import repeat_window
-from sysid_core.run.previous import PreviousModel
-from sysid_core.run.sweeps import SweepPlan
-from sysid_core.run.verification import COARSE_ENOUGH, Verification, Window, modes_at, verify
+from sysid_core.measure.locating import locate as locate_modes
+from sysid_core.measure.locating import probe_first, probe_points
+from sysid_core.measure.passes import repeat_window
+from sysid_core.measure.previous import PreviousModel
+from sysid_core.measure.sweeps import SweepPlan
+from sysid_core.measure.verification import COARSE_ENOUGH, Verification, Window, modes_at, verify
+from sysid_core.model.fitted import FittedModel
+from sysid_core.run.context import RunContext
 from sysid_core.tuning.criteria import ConfidenceRegion, TuningResult
 
 __all__ = ["FullProtocol", "LeanProtocol", "Prefit", "Protocol", "RunContext", "make_protocol"]
@@ -76,7 +76,7 @@ class Protocol(ABC):
     def verify(
         self, bias: np.ndarray, predicted: TuningResult, model: FittedModel, folder: Path
     ) -> Verification:
-        """Step 4 at ``bias``, with evidence (:func:`sysid_core.run.verification.verify`)."""
+        """Step 4 at ``bias``, with evidence (:func:`sysid_core.measure.verification.verify`)."""
 
     def every_sweep(self, it: int, bias: np.ndarray) -> xr.Dataset | None:
         """Every sweep so far, if iteration ``it`` fitted fewer (None: it fitted them all)."""
@@ -98,18 +98,17 @@ class Protocol(ABC):
         """One sweep at ``bias``, its own model and the evidence that it shows both modes.
 
         A narrow window that shows both modes but whose noise hides the split is measured again
-        and averaged (:mod:`sysid_core.run.passes`); every pass is saved (``-pass2.nc``, ...).
+        and averaged (:mod:`sysid_core.measure.passes`); every pass is saved (``-pass2.nc``, ...).
         A window too coarse but with a split over ``enough`` (Hz) stands
-        (:meth:`~sysid_core.run.evidence.WindowAssessment.enough`).
+        (:meth:`~sysid_core.measure.evidence.WindowAssessment.enough`).
         """
         sweep = self.ctx.bench.measure(bias, freqs, path)
         model, evidence = self.ctx.fitter.window(sweep, band)
         evidence = evidence.enough(enough)
         if band or not evidence.ok:
             return sweep, model, evidence
-        ctx = self.ctx
-        first = (sweep, model, evidence)
-        return repeat_window(ctx.bench, ctx.fitter, ctx.config, ctx.say, bias, freqs, path, first)
+        ctx, first = self.ctx, (sweep, model, evidence)
+        return repeat_window(ctx.bench, ctx.fitter, ctx.passes, ctx.say, bias, freqs, path, first)
 
     def _verify_with(
         self,
@@ -168,7 +167,7 @@ class LeanProtocol(Protocol):
         super().__init__(ctx)
         #: A previous model of the gyro (``--from-model``): while its answers contract the
         #: split, it is anchored on the latest sweeps instead of measuring designs.
-        self.previous = PreviousModel.given(prior, ctx.config.tuning)
+        self.previous = PreviousModel.given(prior, ctx.config.tuning.acceptance_hz)
         self.known = Knowledge(ctx.space.tuned, ctx.space.structure_potential)
         self.locate_plan = locate_plan(ctx.plan, ctx.config.experiment.locate_points)
         self.local = False
@@ -177,7 +176,7 @@ class LeanProtocol(Protocol):
         self.last_region: ConfidenceRegion | None = None
         self.splits: list[float] = []  # every verified split, in order
         #: With ``probe``, the run's first look at the band is a probe
-        #: (:mod:`sysid_core.run.locating`); whether it found the bench quiet decides the first
+        #: (:mod:`sysid_core.measure.locating`); whether it found the bench quiet decides the first
         #: design.
         self.quiet, self.scout_plan = False, self.locate_plan
 
@@ -284,7 +283,7 @@ class LeanProtocol(Protocol):
     def _from_previous(
         self, it: int, bias: np.ndarray, folder: Path
     ) -> tuple[xr.Dataset, Prefit | None]:
-        """The previous model anchored on the latest sweeps (:mod:`sysid_core.run.previous`).
+        """The previous model anchored on the latest sweeps (:mod:`sysid_core.measure.previous`).
 
         Iteration 1 measures one mode grid at ``bias`` around the modes the model predicts
         there (no locating sweep, no design); later ones anchor on the verification windows.
@@ -312,8 +311,8 @@ class LeanProtocol(Protocol):
         """Why the last prediction does not stand (the law holds only locally), or None.
 
         It does not when the verified split is outside its predicted 95 % range, falls too
-        slowly (:mod:`sysid_core.run.contraction`), or the model of all sweeps does not
-        reproduce the verified modes (:func:`~sysid_core.run.lean.explained_gap`).
+        slowly (:mod:`sysid_core.measure.contraction`), or the model of all sweeps does not
+        reproduce the verified modes (:func:`~sysid_core.measure.lean.explained_gap`).
 
         With None comes the fit of all sweeps that judged it (the iteration's fit, when the union
         stands).
@@ -344,11 +343,11 @@ class LeanProtocol(Protocol):
     def _learn(self, bias: np.ndarray, path: Path, first: np.ndarray | None = None) -> None:
         """Measure one identification experiment where its modes should be (``first``: here).
 
-        The band, a scout or a mode grid (:mod:`sysid_core.run.lean`); one that does not show
+        The band, a scout or a mode grid (:mod:`sysid_core.measure.lean`); one that does not show
         both modes is followed by windows around the modes it fitted (once), the locating band,
-        one four times as dense and the band at ``resolution_hz`` (:mod:`sysid_core.run.zoom`).
+        one four times as dense and the band at ``resolution_hz`` (:mod:`sysid_core.measure.zoom`).
         With ``[experiment] probe``, the run's first look at the band is a probe of a third of
-        its points, which also says whether the bench is quiet (:mod:`sysid_core.run.locating`).
+        its points, which also says whether the bench is quiet (:mod:`sysid_core.measure.locating`).
         """
         ctx = self.ctx
         guess, scout = self.known.guess(bias, ctx.fitter.structure, ctx.fitter.model)

@@ -14,13 +14,13 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from sysid_core.clock.bench import Bench
+from sysid_core.clock.budget import spent_s
+from sysid_core.measure.verification import Verification
 from sysid_core.model.fitted import FittedModel
-from sysid_core.run.answer import dac_floor
-from sysid_core.run.bench import Bench
-from sysid_core.run.budget import spent_s
-from sysid_core.run.verification import Verification
 from sysid_core.tuning.confidence import split_interval
 from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion, Goal, TuningResult
+from sysid_core.verdict.answer import dac_floor
 
 __all__ = [
     "CONFIDENCE_KEYS",
@@ -257,7 +257,7 @@ def status_line(
     """One sentence on how a run stands after iteration ``it``.
 
     ``dac_floor_hz``: the split the model predicts at the last answer's DAC code when the DAC
-    limits it (:func:`sysid_core.run.answer.dac_floor`), said with goals not met.
+    limits it (:func:`sysid_core.verdict.answer.dac_floor`), said with goals not met.
     """
     if converged:
         return f"converged after {it} iteration(s): {ver.describe()}; goals met: " + ", ".join(
@@ -296,12 +296,12 @@ def summarize(
 
     ``ver`` and ``goals`` are that iteration's verification and goals; ``bench`` counts what
     was measured; ``rates`` are the dwell per acquisition and the settling, each with where it
-    comes from (:meth:`sysid_core.run.clock.RunClock.rates`): the bench time is the device
+    comes from (:meth:`sysid_core.clock.runclock.RunClock.rates`): the bench time is the device
     clock's span when every measurement carried time stamps (``bench_time_source =
     "clock"``), plus what comes before the first stamp (the settling and the first
     acquisition, as far as they are known), else the estimate ``acquisitions × dwell +
     bias_changes × settle_s`` (``"estimate"``; without ``settle_s`` the bias changes are not
-    counted); :func:`sysid_core.run.budget.spent_s`. ``drift``: the common and split drift
+    counted); :func:`sysid_core.clock.budget.spent_s`. ``drift``: the common and split drift
     rates found (Hz per hour); ``budget_s``: the bench-time budget.
     """
     last = history[-1]

@@ -17,8 +17,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from sysid_core.run.judgement import END_GOAL
 from sysid_core.run.plots import save_figure
+from sysid_core.verdict.judgement import END_GOAL
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

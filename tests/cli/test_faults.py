@@ -161,7 +161,7 @@ def test_window_without_modes_is_not_evidence() -> None:
     from sysid_cloverleaf import CloverleafGyro
 
     from sysid_core.data.schema import experiment_from_measurement
-    from sysid_core.run.evidence import assess_window
+    from sysid_core.measure.evidence import assess_window
 
     gyro = CloverleafGyro(seed=1)
 

@@ -21,8 +21,8 @@ from truths import write_toml
 
 from sysid_core.cli import main
 from sysid_core.errors import BiasLimitError, DeviceError
+from sysid_core.measure.lean import LOCATE_POINTS
 from sysid_core.run.config import parse_config
-from sysid_core.run.lean import LOCATE_POINTS
 from sysid_core.run.pipeline import TuningRun
 
 ROOT = Path(__file__).resolve().parents[2]

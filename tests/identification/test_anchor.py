@@ -19,7 +19,7 @@ from sysid_core.data import concat_experiments, experiment_from_measurement
 from sysid_core.errors import DataError
 from sysid_core.identification.anchor import anchor, split_offset
 from sysid_core.identification.drift import offset_drift
-from sysid_core.run.sweeps import design_experiments
+from sysid_core.measure.sweeps import design_experiments
 
 F = np.linspace(4385.0, 4445.0, 121)
 BIAS = np.array([2.0, 4.4, 0.0])  # near the degenerate bias of seed 1 (2.04, 4.39 V)

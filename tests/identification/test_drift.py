@@ -17,8 +17,8 @@ from sysid_cloverleaf import CloverleafGyro
 from sysid_core import fit, tune
 from sysid_core.data import concat_experiments, experiment_from_measurement
 from sysid_core.errors import ConfigError, FitWarning
+from sysid_core.measure.sweeps import design_experiments
 from sysid_core.run.config import parse_config
-from sysid_core.run.sweeps import design_experiments
 
 RAMP_K_PER_H = 1.5
 RATE_PER_H = -30e-6 * RAMP_K_PER_H  # the truth: −45 ppm/h

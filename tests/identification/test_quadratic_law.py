@@ -20,9 +20,9 @@ from sysid_core import errors, fit, load_model, tune
 from sysid_core.data.schema import make_dataset
 from sysid_core.data.validation import check_rank_condition
 from sysid_core.identification.law import split_part
+from sysid_core.measure.sweeps import design_experiments
 from sysid_core.model.fitted import FittedModel
 from sysid_core.plugin.registry import get_registry
-from sysid_core.run.sweeps import design_experiments
 from sysid_core.tuning.confidence import confidence_region
 from sysid_core.tuning.criteria import BiasSpace, frequencies_from_w, solve_criterion
 from tests.truths import PAPER_BIASES, PAPER_FREQS, V_GYRO, cloverleaf_truth, simulate

@@ -19,11 +19,11 @@ from sysid_cloverleaf import CloverleafGyro
 
 from sysid_core import tune
 from sysid_core.cli import main
+from sysid_core.clock.budget import BUDGET_DWELLS, DEFAULT_MAX_ITERATIONS, Budget, spent_s
 from sysid_core.device.capabilities import Capabilities, read_capabilities
 from sysid_core.errors import BudgetSpentError, DeviceError, InvalidAnswerError
-from sysid_core.run.budget import BUDGET_DWELLS, DEFAULT_MAX_ITERATIONS, Budget, spent_s
+from sysid_core.measure.locating import probe_first
 from sysid_core.run.config import parse_config
-from sysid_core.run.locating import probe_first
 from sysid_core.run.pipeline import TuningRun
 
 CONFIG: dict[str, Any] = {
@@ -309,8 +309,8 @@ def test_the_timeline_shows_the_windows_forecast_and_a_far_budget_in_words() -> 
     its time; a budget far past the run is named in the legend, not drawn as a line."""
     from types import SimpleNamespace
 
-    from sysid_core.run.judgement import END_GOAL
     from sysid_core.run.timeline import timeline_figure
+    from sysid_core.verdict.judgement import END_GOAL
 
     def record(it: int, t: float, split: float, bound: float) -> SimpleNamespace:
         goals = [{"name": END_GOAL, "value_hz": bound, "limit_hz": 0.002, "met": bound <= 0.002}]
@@ -351,7 +351,7 @@ def test_the_timeline_shows_the_windows_forecast_and_a_far_budget_in_words() -> 
     ],
 )
 def test_each_measurement_has_a_purpose(name: str, purpose: str) -> None:
-    from sysid_core.run.bench import PURPOSES, purpose_of
+    from sysid_core.clock.bench import PURPOSES, purpose_of
 
     assert purpose_of(name) == purpose and purpose in PURPOSES
 

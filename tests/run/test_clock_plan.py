@@ -20,8 +20,8 @@ from sysid_cloverleaf import CloverleafGyro
 from sysid_core import load_model, tune
 from sysid_core.cli import main
 from sysid_core.errors import ConfigError
-from sysid_core.run.lean import ANCHORS, RESOLVED_STEP, ModeGuess, mode_grid
-from sysid_core.run.sweeps import MIN_POINTS, SweepPlan
+from sysid_core.measure.lean import ANCHORS, RESOLVED_STEP, ModeGuess, mode_grid
+from sysid_core.measure.sweeps import MIN_POINTS, SweepPlan
 
 PLAN = SweepPlan((4385.0, 4445.0), 0.5, 6.0, 0.05, 1.0, 0.01, 20_000)
 GOOD_LAB = {"temperature_ramp_k_per_h": 0.2, "temperature_walk_k_per_sqrt_h": 0.05}

@@ -15,8 +15,8 @@ from sysid_cloverleaf import CloverleafGyro
 
 from sysid_core import fit
 from sysid_core.data.schema import experiment_from_measurement
-from sysid_core.run.evidence import Check, WindowAssessment, assess_window
-from sysid_core.run.verification import COARSE_ENOUGH
+from sysid_core.measure.evidence import Check, WindowAssessment, assess_window
+from sysid_core.measure.verification import COARSE_ENOUGH
 
 BIAS = np.array([2.0407, 4.3882, 0.0])  # degenerate modes near 4430 Hz
 

@@ -15,8 +15,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from sysid_core import tune
+from sysid_core.measure.contraction import too_slow
 from sysid_core.plugin.registry import get_registry
-from sysid_core.run.contraction import too_slow
 
 splits = st.floats(1e-5, 10.0)
 

@@ -16,9 +16,9 @@ from sysid_cloverleaf import CloverleafGyro
 from truths import cloverleaf_config, write_toml
 
 from sysid_core.cli import main
-from sysid_core.run.answer import DAC_FLOOR_SHARE, dac_floor
 from sysid_core.run.config import parse_config
 from sysid_core.run.pipeline import TuningRun
+from sysid_core.verdict.answer import DAC_FLOOR_SHARE, dac_floor
 
 ACCEPTANCE = 0.001
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import pytest
 
+from sysid_core.drift.policy import DRIFT_VALUES, REMOVED, DriftPolicy
 from sysid_core.errors import ConfigError
 from sysid_core.run.config import parse_config
-from sysid_core.run.driftpolicy import DRIFT_VALUES, REMOVED, DriftPolicy
 
 
 @pytest.mark.parametrize(

@@ -11,7 +11,7 @@ from sysid_cloverleaf import CloverleafGyro
 
 from sysid_core import fit
 from sysid_core.data.schema import experiment_from_measurement
-from sysid_core.run.evidence import FIT_TOLERANCE, NOISE_ALLOWANCE, assess_window
+from sysid_core.measure.evidence import FIT_TOLERANCE, NOISE_ALLOWANCE, assess_window
 
 BIAS = np.array([2.0407, 4.3882, 0.0])  # degenerate modes near 4430 Hz
 

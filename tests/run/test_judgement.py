@@ -16,18 +16,18 @@ from truths import PAPER_BIASES, PAPER_FREQS, V_GYRO, cloverleaf_truth, degenera
 
 from sysid_core import fit, tune
 from sysid_core.errors import ConfigError
+from sysid_core.measure.verification import Verification
 from sysid_core.plugin.registry import get_registry
-from sysid_core.run.answer import answer, best_effort
-from sysid_core.run.judgement import (
+from sysid_core.tuning.criteria import BiasSpace
+from sysid_core.verdict.answer import answer, best_effort
+from sysid_core.verdict.judgement import (
     DRIFTING_AIM,
     RESOLVE_FACTOR,
     aim_fraction,
     holds_s,
     honest_goals,
 )
-from sysid_core.run.trust import WORSE, worse_than_measured
-from sysid_core.run.verification import Verification
-from sysid_core.tuning.criteria import BiasSpace
+from sysid_core.verdict.trust import WORSE, worse_than_measured
 
 ACCEPTANCE = 0.002
 
@@ -274,7 +274,7 @@ def test_an_answer_beyond_the_linearised_step_from_a_near_bias_is_not_taken(
     """The fitted cloverleaf model, a verification near its degenerate bias: an answer far
     beyond the step the model's law asks there (another root, or the law carried where no
     sweep measured it) is replaced by that step, which lands near the degenerate bias."""
-    from sysid_core.run.trust import untrusted_step
+    from sysid_core.verdict.trust import untrusted_step
 
     model = fit(simulate(cloverleaf_truth(), PAPER_BIASES, PAPER_FREQS))
     start = np.array([1.0, 1.0, 0.0])
@@ -309,7 +309,7 @@ def test_a_tracked_run_converges_on_its_windows_forecast_of_the_end(
     """One goal, the split the windows predict at the window's end at 95 %, decides: a 0.4 mHz
     measured split whose forecast bound is 2.5 mHz (a noisy window, a drifting split) is not
     converged; the window's own interval and the old aim no longer apply."""
-    from sysid_core.run.judgement import END_GOAL, verdict
+    from sysid_core.verdict.judgement import END_GOAL, verdict
 
     window = xr.Dataset(coords={"frequency": np.linspace(1000.0, 1001.0, 5)})
     model = SimpleNamespace(stiffness_factor=None, electrodes=[], meta={})

@@ -16,13 +16,13 @@ from sysid_random_gyro import RandomGyro
 
 from sysid_core.device.capabilities import Capabilities, read_capabilities
 from sysid_core.errors import ConfigError, DeviceError, UnreachableTuningError
-from sysid_core.run import lean
+from sysid_core.measure import lean
+from sysid_core.measure.evidence import local_steps
+from sysid_core.measure.lean import ModeGuess, mode_grid, scout_grid
+from sysid_core.measure.locating import QUIET_NOISE, probe_first, probe_points
+from sysid_core.measure.sweeps import MIN_POINTS, SweepPlan
 from sysid_core.run.config import ExperimentConfig, parse_config
-from sysid_core.run.evidence import local_steps
-from sysid_core.run.lean import ModeGuess, mode_grid, scout_grid
-from sysid_core.run.locating import QUIET_NOISE, probe_first, probe_points
 from sysid_core.run.pipeline import TuningRun
-from sysid_core.run.sweeps import MIN_POINTS, SweepPlan
 
 PLAN = SweepPlan((4385.0, 4445.0), 0.5, 6.0, 0.05, 1.0, 0.01, 20_000)
 MAIN_JOB = {

@@ -17,11 +17,9 @@ import pytest
 import xarray as xr
 
 from sysid_core.data.schema import experiment_from_measurement, point_times
-from sysid_core.plugin.registry import get_registry
-from sysid_core.run.config import ExperimentConfig
-from sysid_core.run.evidence import WindowAssessment
-from sysid_core.run.fitter import Fitter
-from sysid_core.run.lean import (
+from sysid_core.measure.evidence import WindowAssessment
+from sysid_core.measure.fitter import Fitter
+from sysid_core.measure.lean import (
     MAX_FINE_HALF_POINTS,
     MOTION_PPM_PER_H,
     PREDICTION_ERROR,
@@ -31,7 +29,8 @@ from sysid_core.run.lean import (
     motion_allowance,
     recentred,
 )
-from sysid_core.run.sweeps import SweepPlan
+from sysid_core.plugin.registry import get_registry
+from sysid_core.run.config import ExperimentConfig
 from sysid_core.tuning.confidence import ConfidenceRegion
 from sysid_core.tuning.criteria import TuningResult
 
@@ -72,7 +71,7 @@ def test_the_motion_allowance_scales_with_frequency_and_time() -> None:
 
 def test_a_fine_grid_resolves_modes_whatever_their_uncertainty() -> None:
     """With ``fine``, the core around each mode has a step of at most RESOLVED_STEP bandwidths."""
-    plan = SweepPlan.from_config(ExperimentConfig(), (1400.0, 1600.0))
+    plan = ExperimentConfig().sweep_plan((1400.0, 1600.0))
     bw = np.array([0.025, 0.03])
     for sigma in (0.0, 0.01, 0.03, 0.08):
         guess = ModeGuess.of([1486.7, 1487.15], bw, sigma)
@@ -109,7 +108,7 @@ def _coarse_then_fine(allow_motion: bool) -> tuple[WindowAssessment, np.ndarray,
     device = reg.device("random-gyro", seed=112, noise=1e-3, bench=LAB)
     structure = reg.structure(device.structure)
     fitter = Fitter(structure, reg.objective("least-squares"), reg.solver("clarabel"))
-    plan = SweepPlan.from_config(ExperimentConfig(), device.band_hz)
+    plan = ExperimentConfig().sweep_plan(device.band_hz)
     names = list(device.electrodes)
 
     def measure(freqs: np.ndarray) -> tuple[xr.Dataset, WindowAssessment]:

@@ -15,8 +15,8 @@ import pytest
 
 from sysid_core import tune
 from sysid_core.plugin.registry import get_registry
-from sysid_core.run.judgement import DRIFT_GOAL, outpaced
 from sysid_core.tuning.criteria import Goal
+from sysid_core.verdict.judgement import DRIFT_GOAL, outpaced
 
 ACCEPTANCE = 0.002
 

@@ -19,8 +19,8 @@ from truths import degenerate_config
 from sysid_core import fit, tune
 from sysid_core.data.schema import experiment_from_measurement
 from sysid_core.errors import DataError
+from sysid_core.measure.passes import MAX_REPEAT_S, average_passes, passes_needed, target_reach_hz
 from sysid_core.plugin.registry import get_registry
-from sysid_core.run.passes import MAX_REPEAT_S, average_passes, passes_needed, target_reach_hz
 from sysid_core.tuning.confidence import split_interval
 
 #: Random gyro 106 (28.3 kHz, input dynamics) near its degenerate bias: true split 2.0 mHz.

@@ -41,11 +41,11 @@ from sysid_core.errors import (
     SysidError,
     UnreachableTuningError,
 )
+from sysid_core.measure.sweeps import design_experiments
 from sysid_core.plugin.registry import Registry
 from sysid_core.run.config import load_config, parse_config
 from sysid_core.run.pipeline import TuningRun
 from sysid_core.run.summary import RunSummary
-from sysid_core.run.sweeps import design_experiments
 
 REDUCED = {"resolution_hz": 1.0, "verify_resolution_hz": 0.02}
 TWO_ELECTRODES = {

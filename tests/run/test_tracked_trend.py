@@ -19,9 +19,10 @@ import xarray as xr
 from truths import degenerate_config
 
 from sysid_core import load_model, tune
+from sysid_core.drift.policy import DriftPolicy
 from sysid_core.identification.fitting import TREND_LAW
+from sysid_core.measure.fitter import TREND_SPAN_S, Fitter
 from sysid_core.plugin.registry import get_registry
-from sysid_core.run.fitter import TREND_SPAN_S, Fitter
 
 ACCEPTANCE = 0.002
 LAB = {
@@ -110,7 +111,10 @@ def test_when_a_fit_carries_the_trend(
 ) -> None:
     reg = get_registry()
     structure = reg.structure("act")
-    fitter = Fitter.of(drift, structure, reg.objective("least-squares"), reg.solver("clarabel"))
+    tracked = DriftPolicy.parse(drift).may_track
+    fitter = Fitter(
+        structure, reg.objective("least-squares"), reg.solver("clarabel"), tracked=tracked
+    )
     assert fitter.trend_for(_two_epochs(span_s, stamped)) is expected
     one_epoch = _two_epochs(span_s, stamped).assign_coords(epoch=("experiment", [1, 1]))
     assert fitter.trend_for(one_epoch) is False
@@ -142,11 +146,14 @@ def test_only_a_tracked_fit_keeps_the_linear_law_under_the_trend(
         seen.append(bool(kwargs["linear_trend"]))
         raise _Stop
 
-    monkeypatch.setattr("sysid_core.run.fitter.fit_structure", fake)
+    monkeypatch.setattr("sysid_core.measure.fitter.fit_structure", fake)
     reg = get_registry()
     for drift in ("track", "auto", "none"):
-        fitter = Fitter.of(
-            drift, reg.structure("act"), reg.objective("least-squares"), reg.solver("clarabel")
+        fitter = Fitter(
+            reg.structure("act"),
+            reg.objective("least-squares"),
+            reg.solver("clarabel"),
+            tracked=DriftPolicy.parse(drift).may_track,
         )
         with pytest.raises(_Stop):
             fitter.fit(_two_epochs(2 * TREND_SPAN_S))

@@ -18,10 +18,10 @@ import xarray as xr
 from truths import degenerate_config
 
 from sysid_core import tune
+from sysid_core.drift.tracker import Tracker
+from sysid_core.measure.verification import Verification
 from sysid_core.plugin.registry import get_registry
-from sysid_core.run.judgement import END_GOAL
-from sysid_core.run.tracking import Tracker
-from sysid_core.run.verification import Verification
+from sysid_core.verdict.judgement import END_GOAL
 
 ACCEPTANCE = 0.002
 LAB = {
@@ -139,8 +139,8 @@ def test_a_mode_that_no_point_came_near_is_blind() -> None:
     bandwidth 0.12 Hz between points 2.6 Hz apart (blind); 523's modes, bandwidths 0.069 and
     0.018 Hz, had points 0.09 Hz apart around them (not blind). A mode whose bandwidth the fit
     could not tell is not called blind."""
-    from sysid_core.run.evidence import WindowAssessment
-    from sysid_core.run.tracking import SAMPLED_WITHIN, blind
+    from sysid_core.drift.tracker import SAMPLED_WITHIN, blind
+    from sysid_core.measure.evidence import WindowAssessment
 
     def window(f: np.ndarray, modes: list[float], bw: list[float]) -> bool:
         ev = WindowAssessment(
@@ -222,10 +222,10 @@ def test_one_window_gives_a_model_that_misses_its_split_the_window_s_split() -> 
 
     from sysid_core import fit
     from sysid_core.data import concat_experiments, experiment_from_measurement
+    from sysid_core.drift.forecast import windows_forecast
     from sysid_core.errors import ModelError
     from sysid_core.identification.anchor import anchor
-    from sysid_core.run.own_splits import windows_forecast
-    from sysid_core.run.sweeps import design_experiments
+    from sysid_core.measure.sweeps import design_experiments
 
     gyro = CloverleafGyro(seed=1, bench={"clock": True, "charging_v_per_h": [0.05, 0.0, 0.0]})
     bias = np.array([2.0, 4.4, 0.0])
@@ -273,7 +273,7 @@ def _charging_windows(charging: float) -> tuple[object, object, list]:
 
     from sysid_core import fit
     from sysid_core.data import concat_experiments, experiment_from_measurement
-    from sysid_core.run.sweeps import design_experiments
+    from sysid_core.measure.sweeps import design_experiments
 
     bias = np.array([2.0, 4.4, 0.0])
     gyro = CloverleafGyro(seed=1, bench={"clock": True, "charging_v_per_h": [charging, 0.0, 0.0]})
@@ -299,9 +299,9 @@ def test_the_windows_carry_a_charging_split_ahead() -> None:
     minutes after the last, the forecast from five windows puts the split where it is then,
     nearer than the latest window's own split, 10 minutes stale; on a
     bench that does not charge it stays where the windows are (no slope made up)."""
+    from sysid_core.drift.forecast import windows_forecast, with_split_rate
     from sysid_core.identification.anchor import anchor
     from sysid_core.identification.drift import offset_drift
-    from sysid_core.run.own_splits import windows_forecast, with_split_rate
 
     bias = np.array([2.0, 4.4, 0.0])
     gyro, model, pairs = _charging_windows(0.05)
@@ -357,7 +357,7 @@ def _fast_windows(seed: int, noise_seed: int, count: int) -> tuple[object, objec
     bandwidths of Q 15 000) one after the other at the bias degenerate a minute later."""
     from sysid_core import fit
     from sysid_core.data import concat_experiments, experiment_from_measurement
-    from sysid_core.run.sweeps import design_experiments
+    from sysid_core.measure.sweeps import design_experiments
 
     bench = {"clock": True, "seed": seed + 1000 * noise_seed, "charging_v_per_h": 0.015}
     gyro = get_registry().device(
@@ -394,8 +394,8 @@ def test_windows_read_the_split_better_together_than_the_latest_alone(seed: int)
     windows near degenerate modes, seconds apart, put the split 10 s after the last nearer the
     truth than the latest window's own fit, over six draws of the noise (root mean square);
     the offset leaves the mean frequency alone."""
+    from sysid_core.drift.forecast import windows_forecast
     from sysid_core.identification.anchor import anchor
-    from sysid_core.run.own_splits import windows_forecast
 
     together, latest_err = [], []
     for noise_seed in range(6):

@@ -16,12 +16,12 @@ import xarray as xr
 from sysid_models import ActStructure
 from truths import cloverleaf_truth
 
+from sysid_core.measure.evidence import Check, WindowAssessment
+from sysid_core.measure.lean import FINE_STEP, ModeGuess, mode_grid
+from sysid_core.measure.sweeps import SweepPlan
+from sysid_core.measure.verification import Verification, modes_at, verify
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import ModalReport
-from sysid_core.run.evidence import Check, WindowAssessment
-from sysid_core.run.lean import FINE_STEP, ModeGuess, mode_grid
-from sysid_core.run.sweeps import SweepPlan
-from sysid_core.run.verification import Verification, modes_at, verify
 from sysid_core.tuning.criteria import TuningResult
 
 PLAN = SweepPlan((3540.0, 3690.0), 2.5, 6.0, 0.05, 1.0, 0.01, 20_000)

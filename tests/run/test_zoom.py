@@ -12,11 +12,11 @@ import numpy as np
 from truths import degenerate_config
 
 from sysid_core import tune
+from sysid_core.measure.evidence import WindowAssessment
+from sysid_core.measure.lean import MAX_FINE_HALF_POINTS
+from sysid_core.measure.sweeps import SweepPlan
+from sysid_core.measure.zoom import zoom_grid
 from sysid_core.plugin.registry import get_registry
-from sysid_core.run.evidence import WindowAssessment
-from sysid_core.run.lean import MAX_FINE_HALF_POINTS
-from sysid_core.run.sweeps import SweepPlan
-from sysid_core.run.zoom import zoom_grid
 
 ACCEPTANCE = 0.002
 

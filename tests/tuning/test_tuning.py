@@ -362,7 +362,7 @@ def test_best_dac_code_is_a_code_near_the_answer_and_predicted_best(
     """Among the codes one step around the answer, the chosen one is a real code (the DAC
     applies it unchanged), at most one step from the answer on each electrode, and the model
     predicts it at least as well as plain rounding and better than any other neighbour."""
-    from sysid_core.run.dac import best_code, predicted_modes_hz
+    from sysid_core.verdict.dac import best_code, predicted_modes_hz
 
     device = CloverleafGyro(dac_bits=bits)
     tuned = ["B1", "B2", "B3"]

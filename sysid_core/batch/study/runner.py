@@ -34,7 +34,7 @@ __all__ = ["failure_message", "load_study_config", "plan_study", "run_study"]
 
 
 def _bench(results: list[dict[str, Any]]) -> dict[str, float | None]:
-    """Median frequency points and bench time per successful run (``sysid_core.run.benchtime``)."""
+    """Median frequency points and bench time per successful run (:mod:`sysid_core.clock`)."""
     points = [r["points"] for r in results if not r["error"] and r.get("points") is not None]
     times = [
         r["bench_time_s"] for r in results if not r["error"] and r.get("bench_time_s") is not None

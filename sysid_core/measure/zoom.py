@@ -10,8 +10,8 @@ points that only see the modes' tails does not reproduce them.
 
 So a whole-band sweep that fails is followed first by :func:`zoom_grid`: around each mode it
 fitted, ``± (half its step + 2 bandwidths)`` at most
-:data:`~sysid_core.run.lean.MAX_FINE_HALF_POINTS` points on either side
-(:func:`~sysid_core.run.lean.mode_grid` with ``fine``), where every mode has points within a
+:data:`~sysid_core.measure.lean.MAX_FINE_HALF_POINTS` points on either side
+(:func:`~sysid_core.measure.lean.mode_grid` with ``fine``), where every mode has points within a
 few bandwidths. Gyro 112 (frozen bench, 60 dB): its first iteration measured 54 points there
 instead of 200 + 200, and the run converged in 496 points at a true split of 0.01 mHz instead of
 ending at 715 mHz after 2406 points (tests/run/test_zoom.py).
@@ -21,9 +21,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from sysid_core.run.evidence import WindowAssessment
-from sysid_core.run.lean import ModeGuess, mode_grid
-from sysid_core.run.sweeps import SweepPlan
+from sysid_core.measure.evidence import WindowAssessment
+from sysid_core.measure.lean import ModeGuess, mode_grid
+from sysid_core.measure.sweeps import SweepPlan
 
 __all__ = ["ZOOM_SHARE", "zoom_grid"]
 

@@ -9,7 +9,7 @@ reach:
   and over :data:`WORSE_ACCEPTANCES` acceptances is an extrapolation the model itself does not
   believe; the run goes back to that verification's bias and measures the local design.
 * :func:`untrusted_step`: once a verification measured a split near degenerate modes (under
-  :data:`~sysid_core.run.tracking.NEAR_ACCEPTANCES` acceptances), what is left to correct is
+  :data:`~sysid_core.drift.tracker.NEAR_ACCEPTANCES` acceptances), what is left to correct is
   small, and the model's own law, linearised at the verified bias, says how far to go (the
   Gauss-Newton step: the split vector is smooth in the bias there). An answer further than
   twice that step, and further than the local design reaches (``[experiment] bias_step``),
@@ -23,14 +23,13 @@ from __future__ import annotations
 import numpy as np
 
 from sysid_core.model.fitted import FittedModel
-from sysid_core.model.modal import normalised_stiffness, trace_deviation
+from sysid_core.model.modal import split_vector_hz
 from sysid_core.tuning.criteria import TuningResult
 
 __all__ = [
     "BEYOND_LINEAR",
     "WORSE",
     "WORSE_ACCEPTANCES",
-    "split_vector_hz",
     "untrusted_step",
     "worse_than_measured",
 ]
@@ -66,19 +65,6 @@ def worse_than_measured(
     return None
 
 
-def split_vector_hz(model: FittedModel, bias: np.ndarray) -> np.ndarray:
-    """The model's split vector (Hz) at ``bias`` (its electrodes): length the split.
-
-    The traceless part ``d`` of ``M^{-1/2} K M^{-1/2}`` (eigenvalues ``t ± |d|``), as
-    ``d / (2π √t)``.
-    """
-    ns = normalised_stiffness(
-        np.asarray(model.M, dtype=float)[None], np.asarray(model.stiffness(bias), dtype=float)[None]
-    )
-    t, d = trace_deviation(ns[0])
-    return np.asarray(d, dtype=float) / (2 * np.pi * np.sqrt(max(float(t), 1e-300)))
-
-
 def untrusted_step(
     model: FittedModel,
     answer: np.ndarray,
@@ -111,12 +97,15 @@ def untrusted_step(
     if jump <= bias_step:
         return None
     h = 1e-3 * bias_step
-    s0 = split_vector_hz(model, b0)
+    s0 = split_vector_hz(model.M, model.stiffness(b0))
     jac = np.empty((2, b0.size))
     for k in range(b0.size):
         e = np.zeros(b0.size)
         e[k] = h
-        jac[:, k] = (split_vector_hz(model, b0 + e) - split_vector_hz(model, b0 - e)) / (2 * h)
+        jac[:, k] = (
+            split_vector_hz(model.M, model.stiffness(b0 + e))
+            - split_vector_hz(model.M, model.stiffness(b0 - e))
+        ) / (2 * h)
     step = -np.linalg.lstsq(jac, s0, rcond=None)[0]
     if not np.all(np.isfinite(step)) or jump <= BEYOND_LINEAR * float(np.max(np.abs(step))):
         return None

@@ -4,7 +4,7 @@ The device's clock is read here once per measurement: its stamps (checked finite
 :func:`sysid_core.device.measuring.check_answer`) must not run backwards from one measurement
 to the next (the contract's one monotonic clock per run), and their span is the run's bench
 time (:attr:`Bench.clock_span_s`). Before a measurement is made, the run's ``guard`` may refuse
-it (the bench-time budget, :mod:`sysid_core.run.budget`).
+it (the bench-time budget, :mod:`sysid_core.clock.budget`).
 """
 
 from __future__ import annotations
@@ -15,11 +15,11 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from sysid_core.clock.benchtime import acquisitions, points_per_frequency
 from sysid_core.data.runfolder import RunFolder
 from sysid_core.data.schema import experiment_from_measurement, point_times
 from sysid_core.device.measuring import GuardedDevice
 from sysid_core.errors import DeviceError, InvalidAnswerError
-from sysid_core.run.benchtime import acquisitions, points_per_frequency
 
 __all__ = [
     "PURPOSES",
@@ -48,7 +48,7 @@ class Bench:
     owns_device : bool
         The run built the device (then :meth:`close` closes it).
     tones : int
-        Frequencies one acquisition measures (:func:`sysid_core.run.benchtime.tones`).
+        Frequencies one acquisition measures (:func:`sysid_core.clock.benchtime.tones`).
     guard : callable, optional
         Called before a measurement is made (not when one is read) with its acquisitions and
         whether the bias changes; raises to refuse it.

@@ -39,13 +39,13 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from sysid_core.clock.benchtime import stated_dwell
 from sysid_core.data.schema import measured_mask
 from sysid_core.device.capabilities import Capabilities
+from sysid_core.measure.evidence import WindowAssessment, noise_share
+from sysid_core.measure.sweeps import SweepPlan
+from sysid_core.measure.zoom import zoom_grid
 from sysid_core.model.fitted import FittedModel
-from sysid_core.run.benchtime import stated_dwell
-from sysid_core.run.evidence import WindowAssessment, noise_share
-from sysid_core.run.sweeps import SweepPlan
-from sysid_core.run.zoom import zoom_grid
 
 __all__ = [
     "PROBE_EVERY",
@@ -93,7 +93,7 @@ def probe_points(locate_points: int) -> int:
 def bench_noise(sweep: xr.Dataset, model: FittedModel) -> float:
     """How noisy a one-experiment sweep is, relative to its response.
 
-    The measured noise's norm over the response's (:func:`~sysid_core.run.evidence.noise_share`)
+    The measured noise's norm over the response's (:func:`~sysid_core.measure.evidence.noise_share`)
     when the sweep carries ``noise_var``; otherwise the relative error of its own fit ``model``,
     which holds the noise and whatever the model does not explain.
     """
@@ -122,7 +122,7 @@ def locate(
 
     ``tries``: ``(suffix, frequencies)``, the file of each ``path`` with the suffix; one that
     repeats a sweep already made is skipped. The first whole-band sweep that fails is followed
-    by windows around the modes its fit placed (:func:`~sysid_core.run.zoom.zoom_grid`, once).
+    by windows around the modes its fit placed (:func:`~sysid_core.measure.zoom.zoom_grid`, once).
     ``probe``: measured first, as ``path`` itself; it ends the search if it shows both modes
     and the bench is quiet (:data:`QUIET_NOISE`), else the tries follow. The return says
     whether the first sweep measured showed both modes on a quiet bench; without a probe it

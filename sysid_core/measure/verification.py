@@ -3,13 +3,13 @@
 :func:`verify` runs the sweeps in order: the window around the predicted modes (skipped when
 the predicted split is wider than it); if it shows both modes but too coarsely (a lean run's
 window around an uncertain prediction: only the resolution and the model's unsampled peak fail,
-:meth:`~sysid_core.run.evidence.WindowAssessment.too_coarse`), a fine window around them, and
+:meth:`~sysid_core.measure.evidence.WindowAssessment.too_coarse`), a fine window around them, and
 one more, sized by the bandwidths its fit measured, if that is still too coarse; if it fails,
 the whole band, whose fit locates the modes; then, if they are close, a narrow window around
 the located modes (with its fine windows). A window too coarse to resolve the modes stands
 without its fine windows when its split is over :data:`COARSE_ENOUGH` times the acceptance.
 Each sweep is judged by
-:func:`sysid_core.run.evidence.assess_window`. A split from a whole-band sweep is reported as
+:func:`sysid_core.measure.evidence.assess_window`. A split from a whole-band sweep is reported as
 *located* (coarse); only a narrow window that passes every check *verifies* a split, and only a
 verified split can make a run converge.
 """
@@ -24,10 +24,10 @@ import xarray as xr
 
 from sysid_core.errors import ModelError
 from sysid_core.identification.objective import Progress
+from sysid_core.measure.evidence import WindowAssessment
+from sysid_core.measure.sweeps import SweepPlan
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import ModalReport
-from sysid_core.run.evidence import WindowAssessment
-from sysid_core.run.sweeps import SweepPlan
 from sysid_core.tuning.criteria import TuningResult
 
 __all__ = [
@@ -50,7 +50,7 @@ Window = Callable[[float, float, bool, np.ndarray | None], np.ndarray]
 MAX_FINE = 2
 #: A window too coarse to resolve the modes stands when its split is over this many times the
 #: acceptance: a fine window would change the split by a few percent, not the verdict (the
-#: protocol's sweep applies it, :meth:`~sysid_core.run.evidence.WindowAssessment.enough`).
+#: protocol's sweep applies it, :meth:`~sysid_core.measure.evidence.WindowAssessment.enough`).
 COARSE_ENOUGH = 10.0
 
 
@@ -150,7 +150,7 @@ def verify(
         Receives progress lines.
     lean : callable, optional
         Chooses the windows' points instead of the plan's even grid (a lean run's
-        :func:`~sysid_core.run.lean.mode_grid`): ``(center, split, predicted, seen)`` to
+        :func:`~sysid_core.measure.lean.mode_grid`): ``(center, split, predicted, seen)`` to
         frequencies, ``predicted`` false for a window around modes a sweep has just found,
         ``seen`` the bandwidths that sweep's fit measured (or None).
     """

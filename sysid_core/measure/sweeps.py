@@ -16,7 +16,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from sysid_core.errors import ConfigError
-from sysid_core.run.config import ExperimentConfig
 
 __all__ = ["MIN_POINTS", "SweepPlan", "design_experiments", "grid"]
 
@@ -100,7 +99,7 @@ class SweepPlan:
         Most points of any sweep.
     tones : int
         Frequencies one acquisition of the device measures: a lean sweep fills its
-        acquisitions (:mod:`sysid_core.run.lean`).
+        acquisitions (:mod:`sysid_core.measure.lean`).
     """
 
     band_hz: tuple[float, float]
@@ -111,26 +110,6 @@ class SweepPlan:
     verify_resolution_hz: float
     max_points: int
     tones: int = 1
-
-    @classmethod
-    def from_config(
-        cls, exp: ExperimentConfig, device_band_hz: Sequence[float], tones: int = 1
-    ) -> SweepPlan:
-        """The plan of an ``[experiment]`` table for a device, checked.
-
-        The device's ``band_hz``, and its ``tones`` (frequencies per acquisition).
-        """
-        band = (float(device_band_hz[0]), float(device_band_hz[1]))
-        return cls(
-            band_hz=exp.band_hz if exp.band_hz is not None else band,
-            resolution_hz=exp.resolution_hz,
-            refine_span_hz=exp.refine_span_hz,
-            refine_resolution_hz=exp.refine_resolution_hz,
-            verify_span_hz=exp.verify_span_hz,
-            verify_resolution_hz=exp.verify_resolution_hz,
-            max_points=exp.max_points,
-            tones=max(int(tones), 1),
-        ).check(band)
 
     def check(self, device_band_hz: tuple[float, float]) -> SweepPlan:
         """Check the plan against the device's band and the point limits; return it.

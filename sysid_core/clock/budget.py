@@ -10,7 +10,7 @@ follow:
   (:class:`~sysid_core.errors.BudgetSpentError`, which the loop catches; before a first
   verification it is the run's error), and says so in one line with the time spent;
 * the verdicts that ask how many iterations remain (a split that falls too slowly,
-  :func:`sysid_core.run.contraction.too_slow`) count the iterations the budget still affords at
+  :func:`sysid_core.measure.contraction.too_slow`) count the iterations the budget still affords at
   the mean cost of the iterations after the first (:meth:`Budget.iterations_left`), not the
   ``max_iterations`` cap: raising the cap changes no verdict.
 

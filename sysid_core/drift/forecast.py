@@ -7,7 +7,7 @@ noisy, but missing what those miss near degenerate modes). :func:`windows_foreca
 as split vectors against the model anchored on the latest window and filters them in time
 (:func:`sysid_core.identification.splittrend.forecast`, the model of
 :data:`~sysid_core.identification.splittrend.LAB_TREND`); the prediction at the next window is
-the split the answer is solved for. :class:`sysid_core.run.tracking.Tracker` applies it.
+the split the answer is solved for. :class:`sysid_core.drift.tracker.Tracker` applies it.
 """
 
 from __future__ import annotations
@@ -18,12 +18,12 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
+from sysid_core.clock.runclock import stamps
 from sysid_core.conic.program import SYM_BASIS
 from sysid_core.identification.anchor import Anchor, anchor, split_offset
 from sysid_core.identification.splittrend import LAB_TREND, SplitForecast, TrendModel, forecast
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import mass_roots
-from sysid_core.run.clock import stamps
 from sysid_core.tuning.confidence import split_interval
 
 __all__ = ["split_variance", "windows_forecast"]

@@ -5,10 +5,10 @@ One object answers every question a run asks of time (:class:`RunClock`):
 * the dwell per acquisition and the settling after a bias change, each the device's own
   (its checked capabilities, :mod:`sysid_core.device.capabilities`), else the configuration's
   (``[experiment] dwell_s``, ``settle_s``), else estimated from the latest fit's Q
-  (:mod:`sysid_core.run.benchtime`);
+  (:mod:`sysid_core.clock.benchtime`);
 * the bench time spent: the device clock's span when every measurement was time-stamped
-  (the stamps are checked once, :class:`~sysid_core.run.bench.Bench`), else the estimate;
-* the budget (:class:`~sysid_core.run.budget.Budget`): a measurement that would end past it is
+  (the stamps are checked once, :class:`~sysid_core.clock.bench.Bench`), else the estimate;
+* the budget (:class:`~sysid_core.clock.budget.Budget`): a measurement that would end past it is
   refused (:class:`~sysid_core.errors.BudgetSpentError`), and the iterations it still affords
   are what the look-ahead verdicts count.
 """
@@ -20,13 +20,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import xarray as xr
 
+from sysid_core.clock.bench import Bench
+from sysid_core.clock.benchtime import dwell, settle
+from sysid_core.clock.budget import Budget, minutes, spent_s
 from sysid_core.device.capabilities import Capabilities
 from sysid_core.errors import BudgetSpentError
 from sysid_core.model.fitted import FittedModel
-from sysid_core.run.bench import Bench
-from sysid_core.run.benchtime import dwell, settle
-from sysid_core.run.budget import Budget, minutes, spent_s
-from sysid_core.run.config import ExperimentConfig
 
 __all__ = ["RunClock", "Seconds", "stamps", "stamps_span_s"]
 
@@ -37,7 +36,7 @@ def stamps(ds: xr.Dataset) -> np.ndarray:
     Empty without ``time_s``; NaN marks a point of unknown time (a frequency a sweep of a data
     set did not measure) and is left out. The one reader of time stamps in a run: each stamp a
     device gives is checked finite, and each measurement's first stamp no earlier than the last
-    one's before it (:class:`~sysid_core.run.bench.Bench`).
+    one's before it (:class:`~sysid_core.clock.bench.Bench`).
     """
     if "time_s" not in ds:
         return np.array([])
@@ -64,14 +63,14 @@ class RunClock:
     ----------
     bench : Bench
         The run's bench: its counts and its device's time stamps.
-    experiment : ExperimentConfig
-        ``[experiment]``: the configured ``dwell_s`` and ``settle_s``.
+    configured : (float or None, float or None)
+        ``[experiment] dwell_s`` and ``settle_s`` (None: not set).
     budget : Budget
         The bench-time budget.
     """
 
     bench: Bench
-    experiment: ExperimentConfig
+    configured: tuple[float | None, float | None]
     budget: Budget
     #: The latest fitted model, whose Q estimates what neither device nor configuration states.
     latest: FittedModel | None = field(default=None)
@@ -89,8 +88,8 @@ class RunClock:
         """
         model = model or self.latest
         return (
-            dwell(self.caps, self.experiment.dwell_s, model),
-            settle(self.caps, self.experiment.settle_s, model),
+            dwell(self.caps, self.configured[0], model),
+            settle(self.caps, self.configured[1], model),
         )
 
     def settle_s(self, model: FittedModel | None = None) -> float:
@@ -163,7 +162,8 @@ class RunClock:
     def describe(self, spent: float | None) -> str:
         """What the run spent of its budget, for the progress (estimated where not binding).
 
-        On a clock, also what it spent the time on (:func:`sysid_core.run.bench.purpose_of`).
+        On a clock, also what it spent the time on
+        (:func:`sysid_core.clock.bench.purpose_of`).
         """
         if self.binding or spent is None:
             parts = self.bench.by_purpose if self.bench.clock_span_s is not None else {}

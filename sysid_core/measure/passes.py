@@ -24,14 +24,13 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from sysid_core.clock.bench import Bench
+from sysid_core.clock.benchtime import dwell
+from sysid_core.clock.runclock import stamps_span_s
 from sysid_core.errors import DataError
+from sysid_core.measure.evidence import WindowAssessment
+from sysid_core.measure.fitter import Fitter
 from sysid_core.model.fitted import FittedModel
-from sysid_core.run.bench import Bench
-from sysid_core.run.benchtime import dwell
-from sysid_core.run.clock import stamps_span_s
-from sysid_core.run.config import PipelineConfig
-from sysid_core.run.evidence import WindowAssessment
-from sysid_core.run.fitter import Fitter
 from sysid_core.tuning.confidence import split_interval
 
 __all__ = [
@@ -55,7 +54,7 @@ def target_reach_hz(split_hz: float, acceptance_hz: float) -> float:
     """How far above the measured split its 95 % interval may reach (Hz).
 
     One acceptance near a tuning: a split under the acceptance is then resolved under twice
-    it, the run's own test (:data:`~sysid_core.run.judgement.RESOLVE_FACTOR`). Far from one,
+    it, the run's own test (:data:`~sysid_core.verdict.judgement.RESOLVE_FACTOR`). Far from one,
     a quarter of the split: the next answer's error is then set by the model's bias law, not by
     the window's noise.
     """
@@ -151,7 +150,7 @@ def average_passes(passes: list[xr.Dataset]) -> xr.Dataset:
 def repeat_window(
     bench: Bench,
     fitter: Fitter,
-    config: PipelineConfig,
+    limits: tuple[float, int, float | None],
     say: Callable[[str], None],
     bias: np.ndarray,
     freqs: np.ndarray,
@@ -161,20 +160,21 @@ def repeat_window(
     """A narrow window that showed both modes, averaged over the passes its noise calls for.
 
     ``first`` is the window measured at ``bias`` and saved at ``path``: its sweep, single-bias
-    model and evidence. When :func:`passes_needed` asks for more than one pass (with the
-    configuration's ``[experiment] max_passes`` and ``[tuning] acceptance_hz``), the same
+    model and evidence. ``limits``: the configuration's ``[tuning] acceptance_hz``,
+    ``[experiment] max_passes`` and ``dwell_s`` (None: not set). When :func:`passes_needed`
+    asks for more than one pass, the same
     frequencies are measured again by ``bench`` (each pass saved first, as
     ``<stem>-pass2.nc``, ...), averaged (:func:`average_passes`) and fitted again by
     ``fitter``; otherwise ``first`` is returned as it is.
     """
     sweep, model, evidence = first
-    exp = config.experiment
+    acceptance_hz, max_passes, dwell_s = limits
     n = passes_needed(
         model,
         evidence.split_hz,
-        config.tuning.acceptance_hz,
-        exp.max_passes,
-        pass_duration_s(sweep, dwell(bench.device.capabilities, exp.dwell_s, model)[0]),
+        acceptance_hz,
+        max_passes,
+        pass_duration_s(sweep, dwell(bench.device.capabilities, dwell_s, model)[0]),
     )
     if n <= 1:
         return first

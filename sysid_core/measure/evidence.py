@@ -31,7 +31,7 @@ with evidence, checked by :func:`assess_window`:
     :data:`MAX_MODEL_PEAK` times the data's peak. An invented mode is either invisible or a
     spike between the sampled points (seen: 98 times the data's peak at Q = 2e9).
 
-The sequence of sweeps that uses these checks: :mod:`sysid_core.run.verification`.
+The sequence of sweeps that uses these checks: :mod:`sysid_core.measure.verification`.
 """
 
 from __future__ import annotations

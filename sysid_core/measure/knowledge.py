@@ -7,7 +7,7 @@ of them together do, or, once a verification has shown that the stiffness law ho
 locally, the sweeps near the bias (:meth:`Knowledge.near`). Each sweep also left its own
 estimate of the modes at its bias (from the single-bias fit that judged its evidence);
 :meth:`Knowledge.guess` turns these and a model of the union into a
-:class:`~sysid_core.run.lean.ModeGuess` for a bias not measured yet.
+:class:`~sysid_core.measure.lean.ModeGuess` for a bias not measured yet.
 """
 
 from __future__ import annotations
@@ -27,10 +27,10 @@ from sysid_core.data.schema import (
 )
 from sysid_core.data.validation import check_rank_condition
 from sysid_core.errors import SysidError
+from sysid_core.measure.evidence import WindowAssessment
+from sysid_core.measure.lean import ModeGuess, predicted_uncertainty, recentred
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.structures import ModelStructure
-from sysid_core.run.evidence import WindowAssessment
-from sysid_core.run.lean import ModeGuess, predicted_uncertainty, recentred
 from sysid_core.tuning.criteria import TuningResult
 
 __all__ = ["Knowledge", "Measured"]
@@ -147,7 +147,7 @@ class Knowledge:
     ) -> tuple[float, float]:
         """Where to centre a window around ``predicted``'s modes, and their uncertainty (Hz).
 
-        :func:`~sysid_core.run.lean.recentred` from the :meth:`latest` located modes, moved
+        :func:`~sysid_core.measure.lean.recentred` from the :meth:`latest` located modes, moved
         by ``model`` from that sweep's bias to ``bias`` (``index``: the tuned electrodes'
         positions); aged from its first time stamp to the latest one of the run plus
         ``settle_s``. The answer's own without located modes.
@@ -185,7 +185,7 @@ class Knowledge:
           modes may have moved by an unknown amount: ``guess`` is the nearest sweep's modes;
         * ``(guess, False)``: a model of every sweep so far (the linear stiffness law over the
           electrodes they vary) predicts the modes, with
-          :data:`~sysid_core.run.lean.PREDICTION_ERROR` of the predicted move as uncertainty.
+          :data:`~sysid_core.measure.lean.PREDICTION_ERROR` of the predicted move as uncertainty.
         """
         ref = self.nearest(bias)
         if ref is None or ref.modes is None:
@@ -222,7 +222,7 @@ class Knowledge:
         The rate is the largest ``|Δf| / |Δw|`` between two sweeps with located modes that
         differ in one electrode; electrodes of one gyro are alike, so it bounds the move of an
         electrode not stepped yet. Without such a pair the uncertainty is 0 and
-        :func:`~sysid_core.run.lean.scout_grid` falls back to the modes' split.
+        :func:`~sysid_core.measure.lean.scout_grid` falls back to the modes' split.
         """
         assert ref.modes is not None
         vg = self.structure_potential

@@ -16,8 +16,8 @@ frequency (the feedthrough polynomial). So a sweep of a lean run is:
   more than ``2·MAX_HALF_POINTS + 1`` points (with ``σ = 0``: 7 points ``2 bw/3`` apart), plus
   :data:`ANCHORS` far points, half on either side.
 
-A sweep whose evidence (:func:`sysid_core.run.evidence.assess_window`) does not show both modes is
-followed by the whole band at the same bias, so a wrong guess costs points, never a result.
+A sweep whose evidence (:func:`sysid_core.measure.evidence.assess_window`) does not show both
+modes is followed by the whole band at the same bias, so a wrong guess costs points, never a result.
 
 On a bench with a clock the modes move while the run measures them. A verification window
 around the predicted modes is centred by the latest located modes moved by the model
@@ -35,8 +35,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sysid_core.run.benchtime import acquisitions
-from sysid_core.run.sweeps import MIN_POINTS, SweepPlan, grid
+from sysid_core.clock.benchtime import acquisitions
+from sysid_core.measure.sweeps import MIN_POINTS, SweepPlan, grid
 from sysid_core.tuning.criteria import TuningResult
 
 __all__ = [
@@ -68,7 +68,7 @@ POINTS_PER_BANDWIDTH = 2.0
 #: At most ``2 * MAX_HALF_POINTS + 1`` points per mode: an uncertain mode gets a coarser step.
 MAX_HALF_POINTS = 3
 #: A grid resolves a mode when its step there is at most this many bandwidths (the evidence's
-#: rule, :mod:`sysid_core.run.evidence`, with a margin).
+#: rule, :mod:`sysid_core.measure.evidence`, with a margin).
 RESOLVED_STEP = 0.9
 #: A verification's fine window steps this many of the narrowest bandwidths a fit measured:
 #: fits scatter by 10-20 % (a step of 0.9 failed on a refit 7 % narrower).
@@ -217,8 +217,8 @@ def mode_grid(
     Around each mode ``±h`` with ``h = CORE_BANDWIDTHS·bw + 2σ``, at a step of
     ``bw / POINTS_PER_BANDWIDTH`` or ``h / MAX_HALF_POINTS``, whichever is coarser; then the
     :data:`ANCHORS` far points of :func:`anchors`. Everything inside the plan's band; never
-    fewer than :data:`~sysid_core.run.sweeps.MIN_POINTS` points (the step is halved and the points
-    per mode doubled until there are: modes at the band's edge, whose far points merge there).
+    fewer than :data:`~sysid_core.measure.sweeps.MIN_POINTS` points (the step is halved and the
+    points per mode doubled until there are: modes at the band's edge, far points merged).
 
     With a device that measures several tones per acquisition (``plan.tones > 1``) the grid
     is fitted to whole acquisitions: when a few points (at most ``ANCHORS / 2``) would spill

@@ -9,7 +9,7 @@ rest, still agrees with it: a gyro with input dynamics in a good lab went 2643, 
 :func:`too_slow` says when the rate seen in the last two verifications would leave the split
 over the acceptance after the iterations left; the run then measures the local design
 (:class:`~sysid_core.run.protocols.LeanProtocol`, and a run from a previous model,
-:class:`~sysid_core.run.previous.PreviousModel`).
+:class:`~sysid_core.measure.previous.PreviousModel`).
 """
 
 from __future__ import annotations

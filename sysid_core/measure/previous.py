@@ -20,12 +20,11 @@ import xarray as xr
 from sysid_core.data.schema import concat_experiments, point_times
 from sysid_core.errors import ConfigError, DataError
 from sysid_core.identification.anchor import anchor
+from sysid_core.measure.contraction import too_slow
+from sysid_core.measure.lean import ModeGuess, mode_grid
+from sysid_core.measure.sweeps import SweepPlan
+from sysid_core.measure.verification import Verification
 from sysid_core.model.fitted import FittedModel
-from sysid_core.run.config import TuningConfig
-from sysid_core.run.contraction import too_slow
-from sysid_core.run.lean import ModeGuess, mode_grid
-from sysid_core.run.sweeps import SweepPlan
-from sysid_core.run.verification import Verification
 
 __all__ = ["PRIOR_BANDWIDTHS", "PRIOR_CONTRACTION", "PRIOR_WINDOWS", "PreviousModel", "check_prior"]
 
@@ -58,11 +57,11 @@ class PreviousModel:
         self.last_split: float | None = None
 
     @classmethod
-    def given(cls, model: FittedModel | None, tuning: TuningConfig) -> PreviousModel | None:
-        """The previous model for a run with the ``[tuning]`` table ``tuning`` (None if none)."""
+    def given(cls, model: FittedModel | None, acceptance_hz: float) -> PreviousModel | None:
+        """The previous model for a run to ``acceptance_hz`` (None if none)."""
         if model is None:
             return None
-        return cls(model, tuning.acceptance_hz)
+        return cls(model, acceptance_hz)
 
     def first_grid(self, tuned_bias: np.ndarray, plan: SweepPlan) -> np.ndarray:
         """The first sweep's frequencies, at the tuned electrodes' biases ``tuned_bias``.
@@ -107,7 +106,7 @@ class PreviousModel:
         be over the acceptance after the iterations left (a model whose law is off by a
         third shrinks the split about 3 times per iteration: 1.58 Hz, 0.42, 0.15, 0.036 in
         four iterations of the cloverleaf, where the local design reached 0.6 mHz;
-        :func:`~sysid_core.run.contraction.too_slow`); ``left``: the iterations the run can
+        :func:`~sysid_core.measure.contraction.too_slow`); ``left``: the iterations the run can
         still start (the bench-time budget's, :meth:`sysid_core.run.context.RunContext.left`).
         """
         split = verification.split_hz if verification.verified else None

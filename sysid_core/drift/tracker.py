@@ -16,7 +16,7 @@ run measures the window again at its bias (:meth:`Tracker.refreshed`): the answe
 on a window seconds old, and the two measurements of one bias give the drift's rate.
 
 The split at the next window is what the windows near degenerate modes predict there
-together (:func:`~sysid_core.run.own_splits.windows_forecast`: one Kalman filter on a line in
+together (:func:`~sysid_core.drift.forecast.windows_forecast`: one Kalman filter on a line in
 time); with the latest window far from them, what that window predicts alone.
 """
 
@@ -31,18 +31,18 @@ import numpy as np
 import xarray as xr
 from scipy.stats import rice
 
+from sysid_core.clock.runclock import stamps
 from sysid_core.data.schema import requested_bias
+from sysid_core.drift.forecast import windows_forecast, with_split_rate
+from sysid_core.drift.policy import DriftPolicy
 from sysid_core.errors import ModelError
 from sysid_core.identification.anchor import anchor
 from sysid_core.identification.drift import OffsetDrift, offset_drift
 from sysid_core.identification.splittrend import SplitForecast
+from sysid_core.measure.evidence import WindowAssessment
+from sysid_core.measure.verification import Verification
 from sysid_core.model.fitted import FittedModel
-from sysid_core.run.clock import stamps
-from sysid_core.run.driftpolicy import DriftPolicy
-from sysid_core.run.evidence import WindowAssessment
-from sysid_core.run.own_splits import windows_forecast, with_split_rate
-from sysid_core.run.trust import split_vector_hz
-from sysid_core.run.verification import Verification
+from sysid_core.model.modal import split_vector_hz
 
 __all__ = ["NEAR_ACCEPTANCES", "SAMPLED_WITHIN", "Tracker", "blind"]
 
@@ -278,7 +278,7 @@ class Tracker:
         offset, found = windows_forecast(model, model, chosen, end)
         at_end = dataclasses.replace(model, K0=np.asarray(model.K0) + offset)
         bias = np.asarray(sweep.sel(electrode=list(model.electrodes))["bias"].values[0])
-        mean = float(np.hypot(*split_vector_hz(at_end, bias)))
+        mean = float(np.hypot(*split_vector_hz(at_end.M, at_end.stiffness(bias))))
         sigma = found.sigma_hz
         bound = float(rice.ppf(0.95, mean / sigma, scale=sigma)) if sigma > 0 else mean
         return bound, mean

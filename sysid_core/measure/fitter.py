@@ -23,17 +23,16 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
+from sysid_core.clock.runclock import stamps_span_s
 from sysid_core.conic.program import Solver
 from sysid_core.data.schema import measured_mask
 from sysid_core.identification.drift import has_time_stamps
 from sysid_core.identification.fitting import fit_structure
 from sysid_core.identification.objective import Objective
 from sysid_core.identification.reweighting import refit
+from sysid_core.measure.evidence import WindowAssessment, assess_window
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.structures import ModelStructure
-from sysid_core.run.clock import stamps_span_s
-from sysid_core.run.driftpolicy import DriftPolicy
-from sysid_core.run.evidence import WindowAssessment, assess_window
 
 __all__ = ["TREND_SPAN_S", "Fitter"]
 
@@ -55,19 +54,6 @@ class Fitter:
     #: The structure on the other side, for :meth:`twin`.
     twin_structure: ModelStructure | None = None
     tracked: bool = False
-
-    @classmethod
-    def of(
-        cls,
-        drift: DriftPolicy | str,
-        structure: ModelStructure,
-        objective: Objective,
-        solver: Solver,
-        twin_structure: ModelStructure | None = None,
-    ) -> Fitter:
-        """The fitter of a run whose ``[model] drift`` is ``drift`` (parsed, or its value)."""
-        policy = drift if isinstance(drift, DriftPolicy) else DriftPolicy.parse(drift)
-        return cls(structure, objective, solver, twin_structure, tracked=policy.may_track)
 
     def trend_for(self, ds: xr.Dataset) -> bool:
         """Whether a fit of ``ds`` carries the stiffness trend.

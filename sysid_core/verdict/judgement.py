@@ -5,7 +5,7 @@ when the measurement can tell, and only as long as the drift leaves it there.
 
 On a tracked run (a bench with a clock) one goal says so (:data:`END_GOAL`): the split at the
 end of the latest window, as the windows' filter predicts it
-(:meth:`~sysid_core.run.tracking.Tracker.end_split`, docs/drift-model.md), is under the
+(:meth:`~sysid_core.drift.tracker.Tracker.end_split`, docs/drift-model.md), is under the
 acceptance (times ``[tuning] aim`` if set) at 95 %: the Rice distribution's 95 % point of the
 predicted vector's length. It holds the window's noise, what the model misses and the drift
 from the window's middle to its end. Without that forecast (no clock, or a latest window that
@@ -20,7 +20,7 @@ gives no split of its own) two goals stand for it, and join the criterion's
   run then goes on instead of claiming convergence.
 * ``split at the end (drift)`` <= acceptance: when the model carries a stiffness trend in time
   (a tracked run's moved model: the split's rate its windows estimate,
-  :func:`sysid_core.run.own_splits.with_split_rate`), the
+  :func:`sysid_core.drift.forecast.with_split_rate`), the
   measured split plus what the split's drift can add
   between the middle of the window and its end (the run's end). :func:`holds_s` says how long
   the tuning stays under the acceptance at that rate. When that drift alone, over the half
@@ -49,12 +49,12 @@ structures are fitted plainly (not refitted with weights) so that their residual
 
 from __future__ import annotations
 
+from sysid_core.clock.runclock import stamps_span_s
+from sysid_core.drift.tracker import Tracker
 from sysid_core.identification.drift import offset_drift
+from sysid_core.measure.fitter import Fitter
+from sysid_core.measure.verification import Verification
 from sysid_core.model.fitted import FittedModel
-from sysid_core.run.clock import stamps_span_s
-from sysid_core.run.fitter import Fitter
-from sysid_core.run.tracking import Tracker
-from sysid_core.run.verification import Verification
 from sysid_core.tuning.confidence import split_interval
 from sysid_core.tuning.criteria import Goal, TuningCriterion
 
@@ -136,7 +136,7 @@ def honest_goals(
 
     ``aim`` (:func:`aim_fraction`) below 1 adds the split's goal at ``aim × acceptance_hz``.
     ``end``: the 95 % bound and mean of the split at the end of the window by the tracked
-    windows' forecast (:meth:`~sysid_core.run.tracking.Tracker.end_split`); with it, one goal,
+    windows' forecast (:meth:`~sysid_core.drift.tracker.Tracker.end_split`); with it, one goal,
     that bound under ``aim × acceptance_hz``, stands for the aim and the window's own bound.
     """
     if not ver.verified or ver.split_hz is None:

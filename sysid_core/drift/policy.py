@@ -10,9 +10,9 @@ value        the run tracks the gyro
 ``none``     never: the gyro is fitted as if it were frozen
 ===========  ===============================================================================
 
-Tracking (:mod:`sysid_core.run.tracking`) solves every answer for the gyro as its windows'
+Tracking (:mod:`sysid_core.drift.tracker`) solves every answer for the gyro as its windows'
 forecast (:mod:`sysid_core.identification.splittrend`) puts it at its verification; a tracking
-run's fit carries a stiffness trend over long spans (:mod:`sysid_core.run.fitter`). The drift
+run's fit carries a stiffness trend over long spans (:mod:`sysid_core.measure.fitter`). The drift
 terms that a fit of measured data may carry on its own (``sysid_core.api.fit(drift=...)``) are
 not run policies: the values ``common``, ``offsets`` and ``trend`` are refused with that advice
 (:data:`REMOVED`).

@@ -3,7 +3,7 @@
 :func:`answer` solves the criterion (a quadratic law by repeated linearization), continues from
 the best reachable bias when the model's "unreachable" may be its extrapolation, moves the
 answer to the DAC code the model predicts best, does not apply an answer the run's measurements
-do not support (:mod:`sysid_core.run.trust`), checks the bias against the device's limits and
+do not support (:mod:`sysid_core.verdict.trust`), checks the bias against the device's limits and
 attaches the answer's confidence region.
 """
 
@@ -18,12 +18,10 @@ import numpy as np
 
 from sysid_core.data.schema import squared_potentials
 from sysid_core.device.measuring import GuardedDevice, applied_bias, check_bias
+from sysid_core.drift.tracker import NEAR_ACCEPTANCES
 from sysid_core.errors import UnreachableTuningError
 from sysid_core.identification.drift import drift_modelled
 from sysid_core.model.fitted import FittedModel
-from sysid_core.run.dac import best_code
-from sysid_core.run.tracking import NEAR_ACCEPTANCES
-from sysid_core.run.trust import untrusted_step, worse_than_measured
 from sysid_core.tuning.confidence import confidence_region
 from sysid_core.tuning.criteria import (
     BiasSpace,
@@ -32,6 +30,8 @@ from sysid_core.tuning.criteria import (
     frequencies_from_w,
     solve_criterion,
 )
+from sysid_core.verdict.dac import best_code
+from sysid_core.verdict.trust import untrusted_step, worse_than_measured
 
 __all__ = [
     "REFUTES",
@@ -101,7 +101,7 @@ def answer(
     verification of the run measured and its bias (``least_measured``). With
     ``acceptance_hz``, an answer whose DAC code leaves a sizeable share of it is said
     (:func:`dac_floor`). An answer the run's measurements do not support is not applied
-    (:mod:`sysid_core.run.trust`): the run goes back to the least measured split's bias, or
+    (:mod:`sysid_core.verdict.trust`): the run goes back to the least measured split's bias, or
     takes the linearised step from the latest verified bias (``latest_measured``), no longer
     than the local design's step (``local_step``, else ``bias_step``).
     """
@@ -357,7 +357,7 @@ def _result_at(
 def apply_best_code(
     model: FittedModel, result: TuningResult, space: BiasSpace, device: GuardedDevice
 ) -> None:
-    """Move ``result`` to the DAC code the model predicts best (:mod:`sysid_core.run.dac`)."""
+    """Move ``result`` to the DAC code the model predicts best (:mod:`sysid_core.verdict.dac`)."""
     code = best_code(model, result, space, device)
     if code is None or np.array_equal(code, result.bias):
         return
