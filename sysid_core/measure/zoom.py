@@ -14,7 +14,7 @@ fitted, ``± (half its step + 2 bandwidths)`` at most
 (:func:`~sysid_core.measure.lean.mode_grid` with ``fine``), where every mode has points within a
 few bandwidths. Gyro 112 (frozen bench, 60 dB): its first iteration measured 54 points there
 instead of 200 + 200, and the run converged in 496 points at a true split of 0.01 mHz instead of
-ending at 715 mHz after 2406 points (tests/run/test_zoom.py).
+ending at 715 mHz after 2406 points (tests/measure/test_zoom.py).
 """
 
 from __future__ import annotations
