@@ -28,7 +28,8 @@ from sysid_core.data.schema import (
 from sysid_core.data.validation import check_rank_condition
 from sysid_core.errors import SysidError
 from sysid_core.measure.evidence import WindowAssessment
-from sysid_core.measure.lean import ModeGuess, predicted_uncertainty, recentred
+from sysid_core.measure.lean import ModeGuess
+from sysid_core.measure.motion import predicted_uncertainty, recentred
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.structures import ModelStructure
 from sysid_core.tuning.criteria import TuningResult
@@ -144,13 +145,14 @@ class Knowledge:
         predicted: TuningResult,
         model: FittedModel,
         settle_s: float,
+        ppm_per_h: float,
     ) -> tuple[float, float]:
         """Where to centre a window around ``predicted``'s modes, and their uncertainty (Hz).
 
-        :func:`~sysid_core.measure.lean.recentred` from the :meth:`latest` located modes, moved
+        :func:`~sysid_core.measure.motion.recentred` from the :meth:`latest` located modes, moved
         by ``model`` from that sweep's bias to ``bias`` (``index``: the tuned electrodes'
         positions); aged from its first time stamp to the latest one of the run plus
-        ``settle_s``. The answer's own without located modes.
+        ``settle_s``, moving at ``ppm_per_h``. The answer's own without located modes.
         """
         ref = self.latest()
         if ref is None or ref.modes is None:
@@ -166,7 +168,8 @@ class Knowledge:
         if ends and seen is not None and seen.size:
             age = max(float(t.max()) for t in ends) - float(seen.min()) + settle_s
         moved = float(np.mean(here) - np.mean(there))
-        return recentred(predicted, moved, float(np.mean(ref.modes.frequencies_hz)), age)
+        latest = float(np.mean(ref.modes.frequencies_hz))
+        return recentred(predicted, moved, latest, age, ppm_per_h)
 
     def nearest(self, bias: np.ndarray) -> Measured | None:
         """The sweep with located modes whose bias is closest to ``bias`` (largest |Δv|)."""
@@ -185,7 +188,7 @@ class Knowledge:
           modes may have moved by an unknown amount: ``guess`` is the nearest sweep's modes;
         * ``(guess, False)``: a model of every sweep so far (the linear stiffness law over the
           electrodes they vary) predicts the modes, with
-          :data:`~sysid_core.measure.lean.PREDICTION_ERROR` of the predicted move as uncertainty.
+          :data:`~sysid_core.measure.motion.PREDICTION_ERROR` of the predicted move as uncertainty.
         """
         ref = self.nearest(bias)
         if ref is None or ref.modes is None:

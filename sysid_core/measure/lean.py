@@ -21,10 +21,11 @@ modes is followed by the whole band at the same bias, so a wrong guess costs poi
 
 On a bench with a clock the modes move while the run measures them. A verification window
 around the predicted modes is centred by the latest located modes moved by the model
-(:func:`recentred`) when the answer's own region knows their mean less well (a fit of hours of
-drifting data); a window around modes the sweep before it has just found is a **fine** grid
-(``mode_grid(..., fine=True)``: every mode resolved, whatever the tones) whose uncertainty is
-their motion since (:func:`motion_allowance`).
+(:func:`~sysid_core.measure.motion.recentred`) when the answer's own region knows their mean
+less well (a fit of hours of drifting data); a window around modes the sweep before it has
+just found is a **fine** grid (``mode_grid(..., fine=True)``: every mode resolved, whatever the
+tones) whose uncertainty is their motion since
+(:func:`~sysid_core.measure.motion.motion_allowance`).
 """
 
 from __future__ import annotations
@@ -36,8 +37,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from sysid_core.clock.benchtime import acquisitions
+from sysid_core.measure.motion import PREDICTION_ERROR
 from sysid_core.measure.sweeps import MIN_POINTS, SweepPlan, grid
-from sysid_core.tuning.criteria import TuningResult
 
 __all__ = [
     "ANCHORS",
@@ -47,16 +48,11 @@ __all__ = [
     "LOCATE_POINTS",
     "MAX_FINE_HALF_POINTS",
     "MAX_HALF_POINTS",
-    "MOTION_PPM_PER_H",
-    "PREDICTION_ERROR",
     "SCOUT_SPLITS",
     "ModeGuess",
     "explained_gap",
     "locate_plan",
     "mode_grid",
-    "motion_allowance",
-    "predicted_uncertainty",
-    "recentred",
     "scout_grid",
     "tone_budget",
 ]
@@ -75,8 +71,6 @@ RESOLVED_STEP = 0.9
 FINE_STEP = 0.75
 #: Far points of a mode grid (half on each side), for the slowly varying terms.
 ANCHORS = 4
-#: A model's predicted move of the modes is trusted to this fraction of the move.
-PREDICTION_ERROR = 0.1
 #: The first electrode stepped may move each mode by about this many splits (a miss costs a
 #: whole-band sweep).
 SCOUT_SPLITS = 0.5
@@ -85,9 +79,6 @@ SCOUT_BANDWIDTHS = 10.0
 #: Most points of a lean run's whole-band sweep (it only locates the modes); ``[experiment]
 #: locate_points`` sets it (31: less time, less accurate in the lab: docs/bench-time.md).
 LOCATE_POINTS = 61
-#: How fast the modes may move on a bench with a clock (ppm of their frequency per hour): an
-#: uncontrolled lab's 1.5 K/h at -30 ppm/K, plus its random walk over a few minutes.
-MOTION_PPM_PER_H = 60.0
 #: A fine grid (:func:`mode_grid` with ``fine``) gives each mode at most this many points a side.
 MAX_FINE_HALF_POINTS = 12
 #: A model explains a verification when its modes miss the measured ones by at most this
@@ -228,9 +219,9 @@ def mode_grid(
     (:func:`tone_budget`): one grid then does what a coarse sweep and a fine one would.
 
     With ``fine`` (the window around modes a sweep has just found, whose uncertainty is their
-    motion since, :func:`motion_allowance`) the step is refined to :data:`RESOLVED_STEP`
-    bandwidths, and to at most ``finest_hz`` when given (a verification's: :data:`FINE_STEP`
-    of the narrowest bandwidth a fit measured), whatever the tones, with at most
+    motion since, :func:`~sysid_core.measure.motion.motion_allowance`) the step is refined to
+    :data:`RESOLVED_STEP` bandwidths, and to at most ``finest_hz`` when given (a verification's:
+    :data:`FINE_STEP` of the narrowest bandwidth a fit measured), whatever the tones, with at most
     :data:`MAX_FINE_HALF_POINTS` points on either side of a mode: the window is there to
     resolve them.
     """
@@ -308,68 +299,6 @@ def scout_grid(guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
         lo, hi = windows[0][0], windows[-1][1]
         points = np.linspace(lo, hi, MIN_POINTS)
     return _merge(points, 1e-9 * float(f.max()))
-
-
-def motion_allowance(frequency_hz: float, times_s: np.ndarray | None, settle_s: float) -> float:
-    """How far modes found by a sweep at ``times_s`` may move before a window around them ends.
-
-    ``MOTION_PPM_PER_H`` of ``frequency_hz`` over the sweep's span, the settling and a window
-    as long again (Hz); 0 for a sweep without time stamps (a bench without a clock). A 1.5 kHz
-    gyro of Q 55 000 moves by about a bandwidth in the ten minutes an 18-point window takes in
-    an uncontrolled lab: a window of ``±2`` bandwidths around the modes found just before
-    then misses one of them.
-    """
-    if times_s is None or np.size(times_s) == 0:
-        return 0.0
-    span_s = 2.0 * float(np.ptp(times_s)) + float(settle_s)
-    return MOTION_PPM_PER_H * 1e-6 * abs(float(frequency_hz)) * span_s / 3600.0
-
-
-def recentred(
-    predicted: TuningResult,
-    moved_hz: float,
-    latest_hz: float,
-    age_s: float,
-) -> tuple[float, float]:
-    """Where to centre the window around a prediction, and its uncertainty (Hz).
-
-    The answer's own mean frequency and :func:`predicted_uncertainty`; or, when it is
-    smaller, the latest located modes' mean ``latest_hz`` moved by the model's predicted move
-    ``moved_hz`` from that sweep's bias to the answer's, uncertain by
-    :data:`PREDICTION_ERROR` of the move, the motion a clock's drift allows over ``age_s``
-    (:data:`MOTION_PPM_PER_H`) and half the largest split of the answer's region. A fit of
-    hours of drifting data knows the modes' mean no better than the drift moved it (on a 1.8
-    kHz gyro: ±2 Hz, against bandwidths of 0.025 Hz), while the design measured just
-    before knows it to a bandwidth.
-    """
-    sigma = predicted_uncertainty(predicted)
-    region = predicted.confidence
-    split = 0.0 if region is None else 0.5 * float(max(region.split_ci_hz))
-    center = latest_hz + moved_hz
-    fresh = (
-        PREDICTION_ERROR * abs(moved_hz)
-        + MOTION_PPM_PER_H * 1e-6 * abs(center) * max(age_s, 0.0) / 3600.0
-        + (split if np.isfinite(split) else 0.0)
-    )
-    if np.isfinite(center) and fresh < sigma:
-        return float(center), float(fresh)
-    return float(predicted.frequency_hz), sigma
-
-
-def predicted_uncertainty(predicted: TuningResult) -> float:
-    """How far the modes at a tuning's bias may be from its prediction (Hz).
-
-    From the answer's confidence region: the half-width of the mean frequency's interval plus
-    half the largest split in it; 0 without a region (the window then rests on the modes'
-    bandwidths, and the whole band catches a miss).
-    """
-    region = predicted.confidence
-    if region is None:
-        return 0.0
-    lo, hi = region.frequency_ci_hz
-    values = [0.5 * (hi - lo), 0.5 * float(max(region.split_ci_hz))]
-    finite = [v for v in values if np.isfinite(v)]
-    return float(sum(finite))
 
 
 def locate_plan(plan: SweepPlan, points: int = LOCATE_POINTS) -> SweepPlan:

@@ -100,6 +100,9 @@ class SweepPlan:
     tones : int
         Frequencies one acquisition of the device measures: a lean sweep fills its
         acquisitions (:mod:`sysid_core.measure.lean`).
+    motion_ppm_per_h : float
+        How fast the modes may move on a bench with a clock (ppm per hour,
+        ``[experiment] motion_ppm_per_h``): how far a window around modes found earlier reaches.
     """
 
     band_hz: tuple[float, float]
@@ -110,6 +113,7 @@ class SweepPlan:
     verify_resolution_hz: float
     max_points: int
     tones: int = 1
+    motion_ppm_per_h: float = 60.0
 
     def check(self, device_band_hz: tuple[float, float]) -> SweepPlan:
         """Check the plan against the device's band and the point limits; return it.

@@ -202,6 +202,10 @@ class ExperimentConfig(_Strict):
     population rows (the uncontrolled lab lost most) 233 of 336 runs ended within 2 mHz
     against 247.
 
+    ``motion_ppm_per_h`` (default 60, an uncontrolled lab) is how fast the modes may move on a
+    bench with a clock: a lean window around modes located earlier is widened by it
+    (:mod:`sysid_core.measure.motion`).
+
     ``probe`` (default ``"auto"``: on when the device states its dwell per acquisition, a
     bench with a clock; ``true``/``false`` force it): the run's first look at the band is a
     probe of a third of the locating sweep's points (at least 21). On a quiet bench (the probe
@@ -235,6 +239,7 @@ class ExperimentConfig(_Strict):
     max_points: int = Field(20_000, ge=11)
     max_passes: int = Field(1, ge=1, le=64)
     locate_points: int = Field(61, ge=11, le=4001)
+    motion_ppm_per_h: float = Field(60.0, ge=0, le=1e5)
     probe: StrictBool | Literal["auto"] = "auto"
     timeout_s: float | None = Field(None, gt=0)
 
@@ -267,6 +272,7 @@ class ExperimentConfig(_Strict):
             verify_resolution_hz=self.verify_resolution_hz,
             max_points=self.max_points,
             tones=max(int(tones), 1),
+            motion_ppm_per_h=self.motion_ppm_per_h,
         ).check(band)
 
 

@@ -36,11 +36,11 @@ from sysid_core.measure.lean import (
     explained_gap,
     locate_plan,
     mode_grid,
-    motion_allowance,
     scout_grid,
 )
 from sysid_core.measure.locating import locate as locate_modes
 from sysid_core.measure.locating import probe_first, probe_points
+from sysid_core.measure.motion import motion_allowance
 from sysid_core.measure.passes import repeat_window
 from sysid_core.measure.previous import PreviousModel
 from sysid_core.measure.sweeps import SweepPlan
@@ -242,9 +242,9 @@ class LeanProtocol(Protocol):
         bw = modes.bandwidth_hz
         if not np.all(np.isfinite(bw) & (bw > 0)):
             bw = np.full(2, self.ctx.plan.verify_resolution_hz)
-        exp = self.ctx.config.experiment
+        exp, ppm = self.ctx.config.experiment, self.ctx.plan.motion_ppm_per_h
         settle = settle_s(self.ctx.bench.device.capabilities, exp.settle_s, model)[0] or 0.0
-        centre, sigma = self.known.centre(bias, self.ctx.space.index, predicted, model, settle)
+        centre, sigma = self.known.centre(bias, self.ctx.space.index, predicted, model, settle, ppm)
 
         def window(
             center: float, split: float, around_prediction: bool, seen: np.ndarray | None
@@ -253,7 +253,7 @@ class LeanProtocol(Protocol):
                 center, uncertainty = centre, sigma
             else:  # modes the last sweep found: they may have moved since (a clock's drift)
                 last = self.known.items[-1].data
-                uncertainty = motion_allowance(center, point_times(last, 0), settle)
+                uncertainty = motion_allowance(center, point_times(last, 0), settle, ppm)
             guess = ModeGuess.of([center - split / 2, center + split / 2], bw, uncertainty)
             if around_prediction:
                 return mode_grid(guess, self.ctx.plan, resolve=True)

@@ -19,13 +19,10 @@ import xarray as xr
 from sysid_core.data.schema import experiment_from_measurement, point_times
 from sysid_core.measure.evidence import WindowAssessment
 from sysid_core.measure.fitter import Fitter
-from sysid_core.measure.lean import (
-    MAX_FINE_HALF_POINTS,
+from sysid_core.measure.lean import MAX_FINE_HALF_POINTS, RESOLVED_STEP, ModeGuess, mode_grid
+from sysid_core.measure.motion import (
     MOTION_PPM_PER_H,
     PREDICTION_ERROR,
-    RESOLVED_STEP,
-    ModeGuess,
-    mode_grid,
     motion_allowance,
     recentred,
 )
@@ -144,3 +141,15 @@ def test_a_slow_gyros_fine_window_follows_its_moving_modes() -> None:
     still, _, _ = _coarse_then_fine(allow_motion=False)
     assert not still.ok
     assert "resolved" in still.failures()
+
+
+def test_the_lab_sets_how_fast_its_modes_may_move() -> None:
+    """``[experiment] motion_ppm_per_h`` reaches the plan, and the allowance scales with it."""
+    plan = ExperimentConfig(motion_ppm_per_h=6.0).sweep_plan((1400.0, 1600.0))
+    assert plan.motion_ppm_per_h == 6.0
+    assert ExperimentConfig().sweep_plan((1400.0, 1600.0)).motion_ppm_per_h == MOTION_PPM_PER_H
+    t = np.array([0.0, 600.0])
+    slow = motion_allowance(1500.0, t, 30.0, plan.motion_ppm_per_h)
+    assert slow == pytest.approx(motion_allowance(1500.0, t, 30.0) / 10.0)
+    with pytest.raises(ValueError, match="motion_ppm_per_h"):
+        ExperimentConfig(motion_ppm_per_h=-1.0)
