@@ -65,10 +65,12 @@ def make_device(
     dac_bits: int | None = None,
     draw: int = 0,
     start_min: float = 0.0,
+    reach: float | None = None,
 ) -> tuple[Any, dict]:
     """Gyro ``seed`` on ``bench`` (its drifts' draw ``draw``) and the device options it took.
 
-    ``start_min``: the bench's clock starts that many minutes into its drifts (``start_s``).
+    ``start_min``: the bench's clock starts that many minutes into its drifts (``start_s``);
+    ``reach``: how far into its limits the gyro's degenerate bias may lie (the device's option).
     The same arguments give a replica of a population run's device (the same seeds).
     """
     sign = 1.0 if seed % 2 else -1.0
@@ -84,6 +86,8 @@ def make_device(
         options["dac_bits"] = dac_bits
     if draw:
         options["noise_seed"] = draw
+    if reach is not None:
+        options["reach"] = reach
     return get_registry().device("random-gyro", **options), options
 
 
@@ -101,9 +105,10 @@ def one(
     draw: int = 0,
     electrodes: int = 2,
     start_min: float = 0.0,
+    reach: float | None = None,
 ) -> dict:
     """Tune gyro ``seed``; its record (true split at the end, claim, points, bench time)."""
-    device, options = make_device(seed, bench, tones, noise, dac_bits, draw, start_min)
+    device, options = make_device(seed, bench, tones, noise, dac_bits, draw, start_min, reach)
     config = {
         "device": {"name": "random-gyro", **{k: v for k, v in options.items() if k != "bench"}},
         "model": {"drift": drift, "structure": device.structure},
@@ -210,6 +215,12 @@ def main() -> None:
         default=2,
         help="tune with the first N electrodes (B1, B2, ...; a gyro with fewer uses all it has)",
     )
+    parser.add_argument(
+        "--reach",
+        type=float,
+        default=None,
+        help="how far into its ±10 V limits each gyro's degenerate bias may lie (0.6; up to 1)",
+    )
     parser.add_argument("--out", type=Path, default=Path("runs/drift-population"))
     args = parser.parse_args()
     if args.draw < 0:
@@ -240,6 +251,7 @@ def main() -> None:
                     args.draw,
                     args.electrodes,
                     args.start_min,
+                    args.reach,
                 )
             )
             log.write(json.dumps(records[-1]) + "\n")

@@ -43,7 +43,8 @@ class RandomGyro(ParametrizedGyro):
     * a bias law off ``v²``: electrode ``p`` adds ``K_p w_p (1 + β_p δv_p²)``,
       ``w_p = (v_gyro − δv_p)²``, ``β_p`` of random sign with ``|β_p|`` uniform in
       1e-3-5e-3 /V²;
-    * the degenerate bias ``b*`` of B1 and B2 uniform in ±6 V (others 0 V), and
+    * the degenerate bias ``b*`` of B1 and B2 uniform in ±6 V (others 0 V; option ``reach``:
+      in ± ``reach`` × 10 V, the same gyro otherwise), and
       ``K0 = λ I − Σ_p K_p w_p(b*) (1 + β_p b*_p²)``, ``λ = (2π f0)²``: both modes are at ``f0``
       at ``b*``. ``b*`` is re-drawn until the native split (all biases 0 V) is at least 0.02 %
       of ``f0``;
@@ -76,6 +77,9 @@ class RandomGyro(ParametrizedGyro):
         Add the seed's out-of-band modes.
     bench : table, optional
         ``[device.bench]``: a clock and slow drifts (:mod:`sysid_simgyro.bench`).
+    reach : float, optional
+        How far into the ±10 V limits the degenerate bias of B1 and B2 may lie (0 < reach <= 1;
+        default 0.6: ±6 V). A far reach asks a run to extrapolate its first model further.
 
     Attributes
     ----------
@@ -106,6 +110,7 @@ class RandomGyro(ParametrizedGyro):
         "feedthrough",
         "extra_modes",
         "bench",
+        "reach",
     )
 
     def __init__(
@@ -119,6 +124,7 @@ class RandomGyro(ParametrizedGyro):
         feedthrough: float | None = None,
         extra_modes: bool = True,
         bench: Mapping[str, Any] | None = None,
+        reach: float | None = None,
     ) -> None:
         checked_seed = as_seed(self.name, "seed", seed)
         if checked_seed is None:
@@ -137,7 +143,14 @@ class RandomGyro(ParametrizedGyro):
         as_bool(self.name, "extra_modes", extra_modes)
         if feedthrough is not None:
             as_fraction(self.name, "feedthrough", feedthrough)
-        params = draw_parameters(checked_seed, dynamics)
+        if reach is not None and not (
+            isinstance(reach, (int, float)) and not isinstance(reach, bool) and 0 < reach <= 1
+        ):
+            raise ConfigError(
+                f"option 'reach' of device {self.name!r} must be a number in (0, 1] (how far into "
+                f"its bias limits the degenerate bias may lie), got {reach!r}"
+            )
+        params = draw_parameters(checked_seed, dynamics, reach)
         super().__init__(
             noise=noise,
             feedthrough=params.feedthrough_level if feedthrough is None else feedthrough,

@@ -68,7 +68,8 @@ SHIFT_RANGE: tuple[float, float] = (0.001, 0.005)
 V_GYRO_RANGE: tuple[float, float] = (12.0, 20.0)
 #: ``|β_p|`` (1/V²) of the bias law ``K_p w_p (1 + β_p δv_p²)``, uniform; random sign.
 BIAS_LAW_RANGE: tuple[float, float] = (1e-3, 5e-3)
-#: The degenerate bias ``b*`` of B1 and B2 is uniform in ``[-TARGET_BIAS_MAX, TARGET_BIAS_MAX]`` V.
+#: The degenerate bias ``b*`` of B1 and B2 is uniform in ``[-TARGET_BIAS_MAX, TARGET_BIAS_MAX]`` V
+#: by default (a ``reach`` of 0.6 of the bias limits).
 TARGET_BIAS_MAX: float = 6.0
 #: Least native split (all biases 0 V) as a fraction of ``f0``; ``b*`` is re-drawn below it.
 MIN_NATIVE_SPLIT: float = 2e-4
@@ -271,7 +272,9 @@ def _extra_modes(rng: np.random.Generator, f0: float) -> tuple[ExtraMode, ...]:
     return tuple(modes)
 
 
-def draw_parameters(seed: int, dynamics: str = "random") -> RandomGyroParameters:
+def draw_parameters(
+    seed: int, dynamics: str = "random", reach: float | None = None
+) -> RandomGyroParameters:
     """Draw the gyro of ``seed`` (every value from ``np.random.default_rng([seed, 0])``).
 
     The draws, in this order (ranges are the module constants):
@@ -286,7 +289,8 @@ def draw_parameters(seed: int, dynamics: str = "random") -> RandomGyroParameters
     3. ``v_gyro``: random sign, magnitude uniform in :data:`V_GYRO_RANGE`; shifts ``s_p``
        uniform in :data:`SHIFT_RANGE`, gains ``g_p = s_p f0² / (10 |v_gyro|)`` Hz²/V²; bias law
        ``β_p`` of random sign with magnitude uniform in :data:`BIAS_LAW_RANGE`.
-    4. ``b*`` on B1, B2 uniform in ±:data:`TARGET_BIAS_MAX` (others 0 V);
+    4. ``b*`` on B1, B2 uniform in ±:data:`TARGET_BIAS_MAX` (others 0 V), or in ``±reach``
+       times the bias limit;
        ``K0 = λ I − Σ_p K_p w_p(b*) (1 + β_p b*_p²)`` with ``λ = (2π f0)²``, re-drawn until the
        native split is at least :data:`MIN_NATIVE_SPLIT` ``· f0``.
     5. Feedthrough level log-uniform in :data:`FEEDTHROUGH_RANGE`, shape uniform in [−1, 1];
@@ -301,6 +305,10 @@ def draw_parameters(seed: int, dynamics: str = "random") -> RandomGyroParameters
         Non-negative seed.
     dynamics : {"random", "output", "input"}
         Where the signal-conditioning low-pass sits; ``"random"`` uses the drawn choice.
+    reach : float, optional
+        How far into its bias limits the gyro's degenerate bias may lie (0 < reach <= 1; default
+        :data:`TARGET_BIAS_MAX` over the limit, 0.6). The same seed with another reach is the
+        same gyro but for ``b*`` (the same uniform draws, scaled) and ``K0``.
 
     Returns
     -------
@@ -308,6 +316,9 @@ def draw_parameters(seed: int, dynamics: str = "random") -> RandomGyroParameters
     """
     if dynamics not in ("random", *DYNAMICS):
         raise ValueError(f"dynamics must be 'random', 'output' or 'input', got {dynamics!r}")
+    if reach is not None and not 0.0 < reach <= 1.0:
+        raise ValueError(f"reach must be in (0, 1], got {reach!r}")
+    far = TARGET_BIAS_MAX if reach is None else float(reach) * BIAS_LIMITS[1]
     rng = np.random.default_rng([seed, 0])
 
     f0 = _log_uniform(rng, F0_RANGE_HZ)
@@ -330,7 +341,7 @@ def draw_parameters(seed: int, dynamics: str = "random") -> RandomGyroParameters
     lam = (TWO_PI * f0) ** 2
     while True:
         target = np.zeros(n)
-        target[:2] = rng.uniform(-TARGET_BIAS_MAX, TARGET_BIAS_MAX, 2)
+        target[:2] = rng.uniform(-far, far, 2)
         w = (v_gyro - target) ** 2 * (1.0 + beta * target**2)
         k0 = lam * np.eye(2) - np.tensordot(w, kp, axes=1)
         k0 = 0.5 * (k0 + k0.T)

@@ -408,3 +408,18 @@ def test_tuning_reaches_the_exact_degenerate_bias(tmp_path: Path) -> None:
     np.testing.assert_allclose(summary.bias, device.true_degenerate_bias(), atol=0.02)
     native = device.true_split_hz([0.0] * n)
     assert native > 1.0  # there was something to tune
+
+
+def test_a_far_reach_moves_only_the_degenerate_bias_and_keeps_it_exact() -> None:
+    """``reach`` scales the drawn ``b*`` (the same gyro otherwise) and ``b*`` stays degenerate."""
+    near, far = draw_parameters(3), draw_parameters(3, reach=0.9)
+    assert far.electrode_angles_deg == near.electrode_angles_deg and far.q == near.q
+    assert draw_parameters(3, reach=0.6) == near  # the default reach is the default draw
+    assert all(abs(b) <= 9.0 for b in far.degenerate_bias[:2])
+    truth = far.truth()
+    bias = truth.degenerate_bias((0, 1))
+    np.testing.assert_allclose(bias, far.degenerate_bias, rtol=0, atol=1e-9)
+    assert truth.split_hz(bias) < 1e-9 * far.f0_hz
+    assert RandomGyro(seed=3, reach=0.9).params == far
+    with pytest.raises(ConfigError, match="option 'reach'"):
+        RandomGyro(seed=3, reach=1.5)
