@@ -101,7 +101,8 @@ def _fitted_modes(model: FittedModel | None) -> tuple[np.ndarray, np.ndarray] | 
     if model is None:
         return None
     try:
-        report = model.modal(model.meta.get("fit_bias", [[0.0] * model.n_electrodes])[0])
+        fitted = model.facts.fit_bias
+        report = model.modal(np.zeros(model.n_electrodes) if fitted is None else fitted[0])
     except Exception:  # a model without modes there: nothing to estimate from
         return None
     f = np.asarray(report.frequencies_hz, dtype=float)

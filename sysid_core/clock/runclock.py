@@ -80,6 +80,10 @@ class RunClock:
         """What the device states of its bench, checked once."""
         return self.bench.device.capabilities
 
+    def saw(self, model: FittedModel) -> None:
+        """Estimate from ``model`` (the run's latest fit) what nothing else states."""
+        self.latest = model
+
     def rates(self, model: FittedModel | None = None) -> tuple[Seconds, Seconds]:
         """The dwell per acquisition and the settling after a bias change, with their sources.
 

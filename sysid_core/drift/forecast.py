@@ -93,8 +93,8 @@ def with_split_rate(moved: FittedModel, found: SplitForecast, span_s: float) -> 
     reports) sees the one estimate. ``span_s``: the time the windows span.
     """
     root, inv_root = mass_roots(moved.M)
-    trend = moved.meta.get("drift_trend")
-    a = np.zeros((2, 2)) if trend is None else inv_root @ np.asarray(trend, float) @ inv_root
+    trend = moved.facts.trend_per_s
+    a = np.zeros((2, 2)) if trend is None else inv_root @ trend @ inv_root
     common = 0.25 * np.trace(a + a.T) * np.eye(2)
     r = np.asarray(found.rate_hz_per_s, dtype=float) * moved.omega_center * 2 * np.pi
     rate = root @ (common + np.array([[r[0], r[1]], [r[1], -r[0]]])) @ root

@@ -63,7 +63,9 @@ class Tracker:
     Parameters
     ----------
     settle_s : float
-        The device's settling time after a bias change (0 if it does not say).
+        The device's settling time after a bias change (0 if it does not say), unless
+        ``settling`` gives it for a model (the run's clock: the device's, the configuration's,
+        or the model's estimate).
     near_hz : float
         Earlier windows anchor the model only if they measured a split under this.
     keep : int
@@ -71,6 +73,7 @@ class Tracker:
     """
 
     settle_s: float = 0.0
+    settling: Callable[[FittedModel | None], float] | None = None
     near_hz: float = float("inf")
     keep: int = 4
     windows: list[xr.Dataset] = field(default_factory=list)
@@ -85,7 +88,12 @@ class Tracker:
     forecast: SplitForecast | None = None
 
     @classmethod
-    def of(cls, drift: DriftPolicy, acceptance_hz: float) -> Tracker | None:
+    def of(
+        cls,
+        drift: DriftPolicy,
+        acceptance_hz: float,
+        settling: Callable[[FittedModel | None], float] | None = None,
+    ) -> Tracker | None:
         """The tracker of a run whose ``[model] drift`` is ``drift``, or None.
 
         ``"track"`` and ``"auto"`` (which tracks only on a bench with a clock, the run's
@@ -94,7 +102,7 @@ class Tracker:
         """
         if not drift.may_track:
             return None
-        return cls(near_hz=NEAR_ACCEPTANCES * acceptance_hz)
+        return cls(settling=settling, near_hz=NEAR_ACCEPTANCES * acceptance_hz)
 
     def learned(self, ver: Verification) -> None:
         """Keep the verification's last window if it verified a split at known times.
@@ -185,10 +193,15 @@ class Tracker:
             [*older[-(self.keep - 1) :], self.windows[-1]] if self.keep > 1 else self.windows[-1:]
         )
 
-    def ahead_s(self) -> float:
-        """From the latest time stamp to the middle of the next window (seconds)."""
+    def ahead_s(self, model: FittedModel | None = None) -> float:
+        """From the latest time stamp to the middle of the next window (seconds).
+
+        The settling after the bias change (:attr:`settling` of ``model``, else
+        :attr:`settle_s`) and half the latest window.
+        """
         t = stamps(self.windows[-1]) if self.windows else np.array([])
-        return self.settle_s + (0.5 * float(np.ptp(t)) if t.size else 0.0)
+        settle = self.settle_s if self.settling is None else self.settling(model)
+        return settle + (0.5 * float(np.ptp(t)) if t.size else 0.0)
 
     def now(
         self, model: FittedModel, ds: xr.Dataset, say: Callable[[str], None], it: int
@@ -203,7 +216,7 @@ class Tracker:
         found = anchor(model, chosen)
         measured = stamps(ds)
         latest = float(measured.max()) if measured.size else found.t_ref
-        at = max(found.t_ref, latest) + self.ahead_s()
+        at = max(found.t_ref, latest) + self.ahead_s(model)
         moved = found.model_at(model, at)
         chosen_own, refused = self.filtered()
         self.forecast = None

@@ -183,7 +183,7 @@ def offset_drift(model: Any) -> OffsetDrift | None:
     ``Δω² / (2ω)``: the stiffness change ``D`` seen through ``M^{-1/2} D M^{-1/2}`` gives the
     common move (half its trace) and the split's (twice the radius of its deviatoric part).
     """
-    meta = model.meta
+    facts = model.facts
     lam, vec = np.linalg.eigh(np.asarray(model.M, dtype=float))
     inv_root = vec @ np.diag(1.0 / np.sqrt(lam)) @ vec.T
     to_hz = 1.0 / (2.0 * model.omega_center * 2.0 * np.pi)
@@ -192,13 +192,13 @@ def offset_drift(model: Any) -> OffsetDrift | None:
         a = inv_root @ np.asarray(d, dtype=float) @ inv_root
         return np.array([0.5 * (a[0, 0] + a[1, 1]), 0.5 * (a[0, 0] - a[1, 1]), a[0, 1]]) * to_hz
 
-    times = meta.get("drift_epoch_times_s")
-    if meta.get("drift_trend") is not None:
-        slope = moves(meta["drift_trend"]) * 3600.0
-        span, epochs = float(meta.get("drift_trend_span_s", 0.0)), 0
-    elif meta.get("drift_offsets") and times is not None and len(times) >= 2:
+    times = facts.epoch_times_s
+    if facts.trend_per_s is not None:
+        slope = moves(facts.trend_per_s) * 3600.0
+        span, epochs = facts.trend_span_s, 0
+    elif facts.offsets and len(times) >= 2:
         f0 = model.omega_center / (2.0 * np.pi)
-        common = [0.5 * float(d) * f0 for d in meta["drift_offsets"]]
+        common = [0.5 * d * f0 for d in facts.offsets]
         values = np.array([[c, 0.0, 0.0] for c in common] + [[0.0, 0.0, 0.0]])
         t = np.asarray(times, dtype=float)
         centred = t - t.mean()

@@ -114,8 +114,9 @@ def fit_structure(
     else:
         model = _fit_one(dataset, structure, objective, solver, progress, timing)
     notes = check_fit(dataset, model) + notes
-    if model.meta.get("law_fallback"):
-        notes.append(str(model.meta["law_test"]))
+    law = model.facts.law
+    if law is not None and law.fallback:
+        notes.append(str(law.note))
     return model, notes
 
 
@@ -207,7 +208,7 @@ def _fit_auto_law(
         model.meta.update(stiffness_law="linear", law_test="design does not identify L_p")
         return model
     quad = _fit_one(dataset, quadratic, objective, solver, progress, timing)
-    if quad.meta.get("law_fallback"):
+    if quad.facts.law is not None and quad.facts.law.fallback:
         return quad
     # on a bench with a clock the part of L_p that moves both modes together holds the drift
     split_only = has_time_stamps(dataset)

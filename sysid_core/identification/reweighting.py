@@ -68,8 +68,8 @@ def refit(
     """
     model, notes = fit_structure(dataset, structure, objective, solver, drift=drift)
     if drift is True:  # the rate the first fit found: the refits do not search it again
-        found = model.meta.get("drift_rate_per_h")
-        drift = float(found) / 3600.0 if found is not None else False
+        found = model.facts.drift_rate_per_h
+        drift = found / 3600.0 if found is not None else False
     done = 0
     for _ in range(refits):
         try:

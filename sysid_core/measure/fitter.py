@@ -97,20 +97,11 @@ class Fitter:
 
     def found(self, model: FittedModel) -> list[str]:
         """What a fit of this fitter found, for the run's progress: the law and the trend."""
-        lines, meta = [], model.meta
-        law = meta.get("stiffness_law")
-        if law is not None and not meta.get("from_model"):
-            stat, limit = meta.get("law_statistic"), meta.get("law_threshold")
-            part = " that split the modes" if meta.get("law_tested") == "split" else ""
-            test = (
-                f" (test of the L_p terms{part} {stat:.3g} "
-                f"{'>' if law == 'quadratic' else '<='} {limit:.3g})"
-                if stat is not None and limit is not None
-                else f" ({meta.get('law_test')})"
-            )
-            lines.append(f"stiffness law {law}{test}")
-        if self.tracked and "drift_trend" in meta:
-            hours = float(meta.get("time_span_s", 0.0)) / 3600.0
+        lines, facts = [], model.facts
+        if facts.law is not None and not facts.from_model:
+            lines.append(f"stiffness law {facts.law.describe()}")
+        if self.tracked and facts.trend_per_s is not None:
+            hours = facts.time_span_s / 3600.0
             lines.append(f"the sweeps span {hours:.2g} h; the fit carries their trend")
         return lines
 

@@ -80,6 +80,10 @@ class Knowledge:
         #: offsets gives each earlier epoch a stiffness offset of its own.
         self.epoch = 1
 
+    def begin(self, epoch: int) -> None:
+        """Sweeps added from now on belong to ``epoch`` (the run's iteration)."""
+        self.epoch = epoch
+
     def add(self, sweep: xr.Dataset, evidence: WindowAssessment | None) -> None:
         """Keep ``sweep``, in the current :attr:`epoch`; its modes if ``evidence`` shows both."""
         modes = None

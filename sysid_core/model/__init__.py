@@ -2,8 +2,9 @@
 
 Lives here: :class:`ModelStructure` and ``DEFAULT_ORDER``, ``DEFAULT_BIAS_TERMS``,
 ``DEFAULT_STIFFNESS`` (:mod:`.structures`), :class:`FittedModel` with its files
-(:mod:`.fitted`), modal frequencies, Q, SNR loss and the closed-form degenerate bias
-(:mod:`.modal`), and the python-control exports (:mod:`.export`).
+(:mod:`.fitted`) and what its fit found, typed (:mod:`.facts`), modal frequencies, Q, SNR loss
+and the closed-form degenerate bias (:mod:`.modal`), and the python-control exports
+(:mod:`.export`).
 
 May import: :mod:`sysid_core.errors`, :mod:`sysid_core.data`, :mod:`sysid_core.conic`.
 """

@@ -35,6 +35,7 @@ from sysid_core.data.io import atomic_write
 from sysid_core.data.schema import measured_mask, squared_potentials
 from sysid_core.errors import DataError, ModelError
 from sysid_core.model import export, files
+from sysid_core.model.facts import FitFacts
 from sysid_core.model.files import DEFAULT_INPUTS, DEFAULT_OUTPUTS, channel_names
 from sysid_core.model.laws import linearize
 from sysid_core.model.modal import ModalReport, modal_analysis, snr_loss_db
@@ -116,6 +117,11 @@ class FittedModel:
     poly_w: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 2, 2), dtype=complex))
     stiffness_factor: np.ndarray | None = None
     Lp: np.ndarray | None = None
+
+    @property
+    def facts(self) -> FitFacts:
+        """What the fit found, typed (:mod:`sysid_core.model.facts`), read from :attr:`meta`."""
+        return FitFacts.of(self.meta)
 
     def __post_init__(self) -> None:
         """Fill in the defaults that depend on the electrodes and check the array shapes."""
@@ -202,9 +208,9 @@ class FittedModel:
                 f"or K(bias) is not finite ({exc})"
             ) from None
         if not (np.all(np.isfinite(lam)) and lam.min() > 0):
-            fitted = self.meta.get("fit_bias")
+            fitted = self.facts.fit_bias
             hint = (
-                f"; it was fitted at biases {fitted} V: use a bias near those"
+                f"; it was fitted at biases {fitted.tolist()} V: use a bias near those"
                 if fitted is not None
                 else "; use a bias near the ones it was fitted at"
             )

@@ -164,7 +164,9 @@ class TuningRun:
             tracked=config.model.policy.may_track,
         )
         #: The verified windows and the model moved ahead (``drift = "track"`` or ``"auto"``).
-        self.tracker = Tracker.of(config.model.policy, config.tuning.acceptance_hz)
+        self.tracker = Tracker.of(
+            config.model.policy, config.tuning.acceptance_hz, settling=self.clock.settle_s
+        )
         plan = config.experiment.sweep_plan(dev.band_hz, tones=acquisition_tones)
         context = RunContext(
             config,
@@ -247,11 +249,10 @@ class TuningRun:
                 self.notes.append(f"iteration {it}: {stop}")
             bias = step.bias
             path.append(bias.tolist())
-            history.append(IterationRecord.of(it, ds, model, step.result, bias, ver, goals))
-            history[-1].points = self.bench.points
             spent = self.clock.spent_s()
             self.clock.budget.ended(spent)
-            history[-1].bench_time_s = spent
+            counts = (self.bench.points, spent)
+            history.append(IterationRecord.of(it, ds, model, step.result, bias, ver, goals, counts))
             summary = summarize(
                 *(summary, history, ver, goals, converged),
                 bench=self.bench,
@@ -302,7 +303,7 @@ class TuningRun:
         for line in self.fitter.found(model):
             self.say(f"iteration {it}: {line}")
         model.save(folder / "model.nc")
-        self.clock.latest = model
+        self.clock.saw(model)
         return ds, model
 
     @property
@@ -314,7 +315,6 @@ class TuningRun:
     def _track(self, it: int, model: FittedModel, ds: xr.Dataset) -> FittedModel:
         """The model moved to the next verification's time (:attr:`tracking`)."""
         assert self.tracker is not None
-        self.tracker.settle_s = self.clock.settle_s(model)
         self.tracker.refresh(ds, self.protocol.sweep, self.out / f"iter{it:02d}", self.say, it)
         now = self.tracker.now(model, ds, self.say, it)
         seen = self.tracker.rates

@@ -349,11 +349,12 @@ def plot_iteration(
     """
     folder = Path(folder)
     units = str(ds.attrs.get("response_units", "") or "response units")
-    law = model.meta.get("stiffness_law")
-    kind = f"{model.structure.name} model{' (' + law + ' stiffness law)' if law else ''}"
+    facts = model.facts
+    law = "" if facts.law is None else f" ({facts.law.law} stiffness law)"
+    kind = f"{model.structure.name} model{law}"
     title = (
         f"iteration {it}: a previous {kind} anchored on {ds.sizes['experiment']} sweep(s)"
-        if model.meta.get("from_model")
+        if facts.from_model
         else f"iteration {it}: {kind} fitted to {ds.sizes['experiment']} experiments, "
         f"residual γ = {model.gamma:.3g} ({units})·(rad/s)²"
     )

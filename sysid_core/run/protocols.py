@@ -189,7 +189,7 @@ class LeanProtocol(Protocol):
         condition; iteration 1 measures the design where the modes should be.
         """
         ctx = self.ctx
-        self.known.epoch = it
+        self.known.begin(it)
         if self.previous is not None:
             return self._from_previous(it, bias, folder)
         if it > 1 and self.moved:

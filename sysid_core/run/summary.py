@@ -76,8 +76,9 @@ class IterationRecord:
         bias: np.ndarray,
         ver: Verification,
         goals: list[Goal],
+        counts: tuple[int, float | None] = (0, None),
     ) -> IterationRecord:
-        """The record of iteration ``it``: its data, model, answer and verification."""
+        """Iteration ``it``'s record; ``counts``: the run's points and bench time (s) so far."""
         return cls(
             iteration=it,
             experiments=ds["bias"].values.tolist(),
@@ -92,8 +93,10 @@ class IterationRecord:
             goals=[g.as_dict() for g in goals],
             evidence=[w.as_dict() for w in ver.windows],
             gamma=model.gamma,
-            fit_time_s=float(model.meta["fit_time_s"]),
+            fit_time_s=float(model.facts.fit_time_s or 0.0),
             measured_split_ci_hz=_interval(ver),
+            points=counts[0],
+            bench_time_s=counts[1],
         )
 
     def as_dict(self) -> dict[str, Any]:

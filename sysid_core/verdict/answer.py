@@ -299,7 +299,7 @@ def best_effort(
         )
         return _result_at(bias, space, model, criterion_name, exc)
     best = exc.best_bias
-    span = float(model.meta.get("time_span_s") or 0.0)
+    span = model.facts.time_span_s
     unmodelled = span > 0 and not drift_modelled(model)
     far = (
         best is not None

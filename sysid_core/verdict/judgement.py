@@ -90,7 +90,7 @@ TWIN_FACTOR = 4.0
 
 def split_rate_hz_per_s(model: FittedModel) -> float | None:
     """How fast the split can move (Hz/s) by the model's stiffness trend, or None without one."""
-    if model.meta.get("drift_trend") is None:
+    if model.facts.trend_per_s is None:
         return None
     seen = offset_drift(model)
     return None if seen is None else seen.split_hz_per_h / 3600.0

@@ -17,6 +17,7 @@ from truths import PAPER_BIASES, PAPER_FREQS, V_GYRO, cloverleaf_truth, degenera
 from sysid_core import fit, tune
 from sysid_core.errors import ConfigError
 from sysid_core.measure.verification import Verification
+from sysid_core.model.facts import FitFacts
 from sysid_core.plugin.registry import get_registry
 from sysid_core.tuning.criteria import BiasSpace
 from sysid_core.verdict.answer import answer, best_effort
@@ -129,7 +130,7 @@ def test_a_split_under_the_acceptance_but_over_the_aim_is_a_goal_not_met() -> No
     """1.5 mHz measured, acceptance 2 mHz: met as a split, not at half the acceptance."""
     window = xr.Dataset(coords={"frequency": np.linspace(1000.0, 1001.0, 5)})
     # a model without a covariance or a drift trend: only the split's goals apply
-    model = SimpleNamespace(stiffness_factor=None, electrodes=[], meta={})
+    model = SimpleNamespace(stiffness_factor=None, electrodes=[], meta={}, facts=FitFacts())
     ver = Verification("verified", np.array([1000.5, 1000.5015]), [], window, model)  # type: ignore[arg-type]
     plain = honest_goals(ver, model, ACCEPTANCE)  # type: ignore[arg-type]
     aimed = honest_goals(ver, model, ACCEPTANCE, aim=0.5)  # type: ignore[arg-type]
@@ -312,7 +313,7 @@ def test_a_tracked_run_converges_on_its_windows_forecast_of_the_end(
     from sysid_core.verdict.judgement import END_GOAL, verdict
 
     window = xr.Dataset(coords={"frequency": np.linspace(1000.0, 1001.0, 5)})
-    model = SimpleNamespace(stiffness_factor=None, electrodes=[], meta={})
+    model = SimpleNamespace(stiffness_factor=None, electrodes=[], meta={}, facts=FitFacts())
     ver = Verification("verified", np.array([1000.5, 1000.5004]), [], window, model)  # type: ignore[arg-type]
     tracker = SimpleNamespace(windows=[window], end_split=lambda m, s: (bound, 0.0004))
     fitter = SimpleNamespace(twin=lambda sweep: None, twin_structure=None)
