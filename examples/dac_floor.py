@@ -1,4 +1,4 @@
-"""The smallest true split a bias DAC can reach on each random gyro (docs/drift.md).
+"""The smallest true split a bias DAC can reach on each random gyro (docs/studies/drift-lab.md).
 
     python examples/dac_floor.py --seeds 101-124 301-324 401-424 501-524
 

@@ -1,4 +1,4 @@
-"""Tune a population of random gyros on drifting benches and print the table of docs/drift.md.
+"""Tune random gyros on drifting benches; print a table row (docs/studies/drift-lab.md).
 
     python examples/drift_population.py --bench lab --drift none --seeds 101-124 --out runs/pop
 
@@ -15,7 +15,7 @@ true split at the end of the run, which the run never sees. One JSON line per gy
 B1, B2 and B3 (a gyro with two electrodes uses both). ``--draw K`` (K ≥ 1) tunes the
 same gyros with another draw of the measurement noise and of the bench's drifts (the device's
 ``noise_seed = K``, the bench's seed ``seed + 100000 K``): two draws of the same code differ by
-what a comparison of two codes must beat (docs/drift.md).
+what a comparison of two codes must beat (docs/studies/drift-lab.md).
 """
 
 from __future__ import annotations

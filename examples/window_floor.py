@@ -4,7 +4,7 @@
     python examples/window_floor.py --runs runs/drift-population --seeds 101,108,120
 
 For each gyro of a population run (``--runs``, the folder of ``examples/drift_population.py``)
-one table row (docs/drift.md, "Where the fast gyros stop"):
+one table row (docs/studies/drift-lab.md, "Where the fast gyros stop"):
 
 * the split's drift: the TRUE split at the gyro's degenerate bias of one moment, a minute
   later, on the bench of the run (the uncontrolled lab: charging moves it, the temperature

@@ -1,4 +1,4 @@
-"""How well one verification window measures a fast gyro's split, bench by bench (docs/drift.md).
+"""How well one window measures a fast gyro's split, bench by bench (docs/studies/drift-lab.md).
 
     python examples/drift_population.py --bench lab --drift track --seeds 101-124 --iterations 8
     python examples/window_scatter.py --runs runs/drift-population --seeds 101,106,108

@@ -62,8 +62,8 @@ LAW_CONDITION_LIMIT = 1e10
 #: Why a tracked run's fit over more than an hour, which carries the stiffness trend, keeps the
 #: linear law (``linear_trend``). Its answers follow the charging, so its biases move with time
 #: and quadratic terms take up what the trend leaves of the drift: measured on slow random gyros
-#: in the uncontrolled lab (docs/drift.md, "Long runs"), the quadratic fits' Wald statistic
-#: rose over a run (6.5 to 58-94 against 13.3 on a 1.8 kHz gyro) while their slopes of the
+#: in the uncontrolled lab (docs/studies/drift-lab.md, "Long runs"), the quadratic fits' Wald
+#: statistic rose over a run (6.5 to 58-94 against 13.3 on a 1.8 kHz gyro) while their slopes of the
 #: split in B1 and B2 left the truth's (50 % off; on another a sign turned, and its answers ran
 #: away to a 50 mHz split). A fit asked for the trend alone (``fit(data, drift="trend")``) keeps
 #: the test: its data may still need the quadratic law.

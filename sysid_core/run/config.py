@@ -198,7 +198,7 @@ class ExperimentConfig(_Strict):
     ``locate_points`` (default 61) is the most points of a lean run's whole-band sweep, which
     only locates the modes (the band at ``resolution_hz`` when that has fewer). Measured with 31
     (docs/bench-time.md): with a good lab's drift, 10-30 % less time to a split of 1 mHz on the
-    cloverleaf and on 72 random gyros, as many ending within it; over docs/drift.md's 14
+    cloverleaf and on 72 random gyros, as many ending within it; over docs/studies/drift-lab.md's 14
     population rows (the uncontrolled lab lost most) 233 of 336 runs ended within 2 mHz
     against 247.
 

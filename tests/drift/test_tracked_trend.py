@@ -2,7 +2,8 @@
 
 Truth: the simulated gyro's true split at the end of the run (the run never sees it). Random
 gyro 411 (1.5 kHz, Q in the tens of thousands: windows of 15-30 minutes) in the uncontrolled lab
-of docs/drift.md (±1.5 K/h ramp, 0.5 K/√h walk, 15 mV/h charging, analyzer wander, 60 dB SNR):
+of docs/studies/drift-lab.md (±1.5 K/h ramp, 0.5 K/√h walk, 15 mV/h charging, analyzer wander,
+60 dB SNR):
 without the trend its fourth verification lasted 2.6 hours, its fifth fit took the charging of
 those hours for a linear bias law with a 95 % region of ±5.7 V, and the run ended 44 mHz apart
 after 12.7 hours; with it, converged under the acceptance of 2 mHz in under 8 hours.
