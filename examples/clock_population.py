@@ -1,4 +1,4 @@
-"""Time to a tuned gyro by the bench clock: the table of docs/bench-time.md ("Tuning by the clock").
+"""Time to a tuned gyro by the bench clock: docs/studies/bench-time-lab.md ("Tuning by the clock").
 
     python examples/clock_population.py --gyro cloverleaf --tones 1 --starts 12
     python examples/clock_population.py --gyro random --tones 8 --seeds 201-224

@@ -77,7 +77,8 @@ SCOUT_SPLITS = 0.5
 #: ... and by at least this many bandwidths.
 SCOUT_BANDWIDTHS = 10.0
 #: Most points of a lean run's whole-band sweep (it only locates the modes); ``[experiment]
-#: locate_points`` sets it (31: less time, less accurate in the lab: docs/bench-time.md).
+#: locate_points`` sets it (31: less time, less accurate in the lab:
+#: docs/studies/bench-time-lab.md).
 LOCATE_POINTS = 61
 #: A fine grid (:func:`mode_grid` with ``fine``) gives each mode at most this many points a side.
 MAX_FINE_HALF_POINTS = 12

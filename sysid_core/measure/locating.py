@@ -16,8 +16,8 @@ same measurement decides the first design (:meth:`~sysid_core.run.context.RunCon
 quiet bench, under the ``auto`` stiffness law, the first design is one-sided (``n + 1`` biases),
 the designs after it two-sided; and scouts step as the probe did.
 
-Measured with a clock (docs/bench-time.md): the cloverleaf, whose electrodes follow ``v²``,
-reaches a true split of 1 mHz in a median of 14.4 minutes with one tone instead of 30.0, and
+Measured with a clock (docs/studies/bench-time-lab.md): the cloverleaf, whose electrodes follow
+``v²``, reaches a true split of 1 mHz in a median of 14.4 minutes with one tone instead of 30.0, and
 4.4 with 8 tones instead of 5.1. Random gyros, whose laws are not ``v²``, pay for the one-sided
 first design about what the shorter locating sweep saves them (as many end within 1 mHz, 222
 of 240). In the uncontrolled lab (60 dB, where nearly every probe is noisy, 24 iterations) it

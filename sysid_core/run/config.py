@@ -192,15 +192,15 @@ class ExperimentConfig(_Strict):
     reproduced by the model of all sweeps); otherwise the sweeps near the bias, with the local
     design there. ``"full"``: every iteration measures its whole design over the band (the
     first) or ``refine_span_hz`` (later) at the configured resolutions, as the paper does.
-    Measured on the cloverleaf (49 starts, ``docs/bench-time.md``): to a true split of 1 mHz,
-    lean needs a median of under 200 points against about 1400.
+    Measured on the cloverleaf (49 starts, ``docs/studies/bench-time-lab.md``): to a true split
+    of 1 mHz, lean needs a median of under 200 points against about 1400.
 
     ``locate_points`` (default 61) is the most points of a lean run's whole-band sweep, which
     only locates the modes (the band at ``resolution_hz`` when that has fewer). Measured with 31
-    (docs/bench-time.md): with a good lab's drift, 10-30 % less time to a split of 1 mHz on the
-    cloverleaf and on 72 random gyros, as many ending within it; over docs/studies/drift-lab.md's 14
-    population rows (the uncontrolled lab lost most) 233 of 336 runs ended within 2 mHz
-    against 247.
+    (docs/studies/bench-time-lab.md): with a good lab's drift, 10-30 % less time to a split of
+    1 mHz on the cloverleaf and on 72 random gyros, as many ending within it; over
+    docs/studies/drift-lab.md's 14 population rows (the uncontrolled lab lost most) 233 of 336
+    runs ended within 2 mHz against 247.
 
     ``motion_ppm_per_h`` (default 60, an uncontrolled lab) is how fast the modes may move on a
     bench with a clock: a lean window around modes located earlier is widened by it
@@ -212,8 +212,9 @@ class ExperimentConfig(_Strict):
     shows both modes and its noise is under 2 % of its response) it stands as the locating
     sweep, the first design is one-sided under the ``auto`` law, and scouts step as the probe
     does; on a noisy one the whole locating sweep and a two-sided design follow
-    (:mod:`sysid_core.measure.locating`). With a clock (docs/bench-time.md) the cloverleaf reaches
-    a true split of 1 mHz in a median of 14.4 minutes with one tone instead of 30.0.
+    (:mod:`sysid_core.measure.locating`). With a clock (docs/studies/bench-time-lab.md) the
+    cloverleaf reaches a true split of 1 mHz in a median of 14.4 minutes with one tone instead of
+    30.0.
 
     ``max_passes`` (default 1: never repeat) bounds how many passes of a verification window
     are averaged when its noise hides the split (:mod:`sysid_core.measure.passes`): for a bench of
