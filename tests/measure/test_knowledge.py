@@ -1,0 +1,104 @@
+"""What a run has measured (``Knowledge``): every sweep kept in order with its epoch, found again
+by bias within a DAC step, the sweeps near a bias, the rank condition over them, and the modes
+the latest located sweep saw.
+
+Truth: the simulated cloverleaf (frozen bench), whose sweeps at the design of eq. (18) meet the
+rank condition (6), while one bias alone does not.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from sysid_cloverleaf import CloverleafGyro
+
+from sysid_core.data import experiment_from_measurement
+from sysid_core.measure.evidence import WindowAssessment
+from sysid_core.measure.knowledge import SAME_V, Knowledge
+from sysid_core.measure.sweeps import design_experiments
+from sysid_core.tuning.criteria import TuningResult
+
+F = np.linspace(4425.0, 4436.0, 23)
+TUNED = ["B1", "B2"]
+
+
+def sweep(gyro: CloverleafGyro, bias: np.ndarray):
+    measured = gyro.measure(bias, F)
+    return experiment_from_measurement(measured, bias, gyro.electrodes, 15.58, "cloverleaf")
+
+
+@pytest.fixture(scope="module")
+def design() -> tuple[CloverleafGyro, np.ndarray, list]:
+    gyro = CloverleafGyro(seed=1)
+    biases = design_experiments(np.zeros(3), [0, 1], 1.0, (-10.0, 10.0), two_sided=True)
+    return gyro, biases, [sweep(gyro, b) for b in biases]
+
+
+def test_every_sweep_is_kept_in_order_with_its_epoch(design) -> None:
+    _, biases, sweeps = design
+    known = Knowledge(TUNED, 15.58)
+    known.add(sweeps[0], None)
+    known.begin(2)
+    for s in sweeps[1:]:
+        known.add(s, None)
+    assert len(known) == len(sweeps)
+    union = known.union()
+    assert list(union["electrode"].values) == TUNED
+    assert list(union["epoch"].values) == [1] + [2] * (len(sweeps) - 1)
+    np.testing.assert_allclose(union["bias"].values, biases[:, :2], atol=1e-3)
+
+
+def test_a_bias_is_found_again_within_a_dac_step(design) -> None:
+    _, biases, sweeps = design
+    known = Knowledge(TUNED, 15.58)
+    known.add(sweeps[1], None)
+    assert known.has(biases[1]) and known.has(biases[1] + 0.5 * SAME_V)
+    assert not known.has(biases[1] + 10 * SAME_V) and not known.has(biases[2])
+
+
+def test_the_sweeps_near_a_bias_and_their_rank(design) -> None:
+    sweeps = design[2]
+    known = Knowledge(TUNED, 15.58)
+    for s in sweeps:
+        known.add(s, None)
+    far = np.array([5.0, 5.0, 0.0])
+    assert known.near(np.zeros(3), 1.0).sizes["experiment"] == len(sweeps)  # the design's ±1 V
+    assert known.near(np.zeros(3), 0.5).sizes["experiment"] == 1  # only the centre
+    assert known.near(far, 0.5).sizes["experiment"] == len(sweeps)  # none near: every sweep
+    assert known.meets_rank(np.zeros(3), 1.0, "auto")  # two-sided: the quadratic law's rank
+    assert not known.meets_rank(np.zeros(3), 0.5, "linear")  # one bias
+    assert not known.meets_rank(far, 0.5, "linear")  # nothing near
+
+
+def test_the_latest_located_modes_are_those_a_sweep_showed() -> None:
+    known = Knowledge(TUNED, 15.58)
+    gyro = CloverleafGyro(seed=1)
+    near = np.array([2.0377, 4.3884, 0.0])  # the README's answer: both modes inside F
+    seen = WindowAssessment(
+        window_hz=(float(F[0]), float(F[-1])),
+        step_hz=0.5,
+        band=False,
+        frequencies_hz=np.array([4430.04, 4430.046]),
+        bandwidth_hz=np.array([0.08, 0.08]),
+    )  # no failed check: the evidence shows both modes
+    known.add(sweep(gyro, np.zeros(3)), None)
+    assert known.latest() is None
+    known.add(sweep(gyro, near), seen)
+    latest = known.latest()
+    assert latest is not None and latest.modes is not None
+    np.testing.assert_allclose(latest.bias, near, atol=1e-3)
+    np.testing.assert_allclose(latest.modes.frequencies_hz, seen.frequencies_hz)
+
+
+def test_without_located_modes_a_window_is_centred_on_the_answer() -> None:
+    known = Knowledge(TUNED, 15.58)
+    predicted = TuningResult(
+        bias=np.zeros(3),
+        w=np.zeros(2),
+        frequencies_hz=np.array([4430.0, 4430.0]),
+        split_hz=0.0,
+        criterion="degenerate",
+        value=0.0,
+    )
+    centre, sigma = known.centre(np.zeros(3), [0, 1], predicted, None, 10.0, 60.0)  # type: ignore[arg-type]
+    assert centre == predicted.frequency_hz and sigma == 0.0  # no region: no uncertainty said
