@@ -525,8 +525,8 @@ def test_the_lockin_example_is_the_measured_example(tmp_path: Path) -> None:
 
 
 def docs_manifests() -> list[dict[str, object]]:
-    """The manifests with a column map among the toml blocks of docs/measured-data.md."""
-    text = (ROOT / "docs" / "measured-data.md").read_text()
+    """The manifests with a column map among the toml blocks of docs/column-maps.md."""
+    text = (ROOT / "docs" / "column-maps.md").read_text()
     blocks = re.findall(r"```toml\n(.*?)```", text, flags=re.DOTALL)
     return [tomllib.loads(b) for b in blocks if "[columns]" in b]
 
