@@ -2,17 +2,14 @@
 
 A run that tracks the gyro (``[model] drift = "track"``, or ``"auto"`` on a bench with a clock)
 fits its sweeps with a stiffness trend (a stiffness changing linearly in time, the ``trend``
-term of :mod:`sysid_core.identification.drift`) once they span more than :data:`TREND_SPAN_S`. A
-slow gyro's run (1-4 kHz in the uncontrolled lab of docs/studies/drift-lab.md: windows of 5-50
-minutes, runs of hours) otherwise fits hours of charging as if the bias had done it: a 2.6 kHz
-gyro saw its quadratic terms grow threefold over ten iterations while its windows sat within 0.1
-V, the 95 % region of its answers along B1 widen from ±0.04 V to ±0.7 V, and its 16th answer
-move B1 by 1.3 V to an 815 mHz split. Over a shorter span the tracker's anchors follow the
-drift, and a trend fitted on minutes competes with the bias law that the design's sweeps,
-measured one after the other, identify: with the trend in every tracked fit the four lab sets
-ended 74 and 77 of 96 gyros within 2 mHz (draws 0 and 1) against 80 and 78 without it. With the
-trend such a fit keeps the linear law (:data:`sysid_core.identification.fitting.TREND_LAW`: 257
-of 288 runs of the four lab sets in three draws within 2 mHz, against 253 with the law test).
+term of :mod:`sysid_core.identification.drift`) once they span more than :data:`TREND_SPAN_S`.
+The model: over hours, charging and temperature move the stiffness by as much as the bias law
+does, and a time-invariant fit of those sweeps takes that motion for the law (its quadratic
+terms grow, its answers' region widens); over minutes, the tracker's anchors already follow
+the drift, and a trend fitted on sweeps measured one after the other competes with the bias
+law they identify. Such a fit keeps the linear law
+(:data:`sysid_core.identification.fitting.TREND_LAW`). The measurements behind the span and the
+law are in docs/studies/drift-lab.md ("Long runs: a trend in the tracked fit").
 """
 
 from __future__ import annotations
