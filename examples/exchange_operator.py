@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sysid_core.data.sweepfiles import SWEEP_FORMATS, write_sweep
+from sysid_core.formats.sweepfiles import SWEEP_FORMATS, write_sweep
 from sysid_core.plugin.registry import get_registry
 
 REQUEST = re.compile(r"request-(\d{4,})\.json")

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from sysid_cloverleaf.device import CloverleafGyro
 
-from sysid_core.data.sweepfiles import write_sweep
+from sysid_core.formats.sweepfiles import write_sweep
 
 
 def main(folder: Path) -> None:

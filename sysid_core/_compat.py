@@ -22,9 +22,9 @@ __all__ = ["MOVED", "install"]
 MOVED: dict[str, str] = {
     "validation": "data.validation",
     "io": "data.io",
-    "sweepfiles": "data.sweepfiles",
-    "manifest": "data.manifest",
-    "runfolder": "data.runfolder",
+    "sweepfiles": "formats.sweepfiles",
+    "manifest": "formats.manifest",
+    "runfolder": "clock.runfolder",
     "structures": "model.structures",
     "modal": "model.modal",
     "export": "model.export",
@@ -66,6 +66,19 @@ MOVED: dict[str, str] = {
     "cli_study": "cli.study",
     "cli_fleet": "cli.fleet",
     "cli_data": "cli.data",
+    # release 0.2: the files a lab brings left the data set's room
+    "data.sweepfiles": "formats.sweepfiles",
+    "data.manifest": "formats.manifest",
+    "data.export": "formats.export",
+    "data.columnmap": "formats.columnmap",
+    "data.columnsweep": "formats.columnsweep",
+    "data.columnguess": "formats.columnguess",
+    "data.csvsweep": "formats.csvsweep",
+    "data.touchstone": "formats.touchstone",
+    "data.matsweep": "formats.matsweep",
+    "data.mat73": "formats.mat73",
+    "data.textfile": "formats.textfile",
+    "data.runfolder": "clock.runfolder",
 }
 
 #: Names that left an old module for another home than the module's own new one.

@@ -38,6 +38,12 @@ def example_plugin() -> Iterator[Path]:
 
 
 @pytest.fixture(scope="session")
+def example_format() -> Iterator[Path]:
+    """The docs' example format package (.npz sweeps), installed for this session only."""
+    yield install(ROOT / "docs" / "examples" / "sysid-example-format", "sysid-example-format")
+
+
+@pytest.fixture(scope="session")
 def faulty_plugin() -> Iterator[Path]:
     """The fault-injecting device package, installed for this session only."""
     yield install(ROOT / "tests" / "plugins" / "sysid-faulty-device", "sysid-faulty-device")

@@ -316,6 +316,7 @@ ROOMS: dict[str, int] = {
     "tuning": 4,
     "device": 4,
     "plugin": 5,
+    "formats": 6,
     "clock": 6,
     "measure": 7,
     "drift": 8,

@@ -5,7 +5,7 @@ For measurement ``k`` (1, 2, ...) the device writes, atomically, ``request-000k.
     {"id": k, "electrodes": [...], "bias_v": [...], "frequencies_hz": [...]}
 
 and waits for the answer: ``response-000k.<csv|s2p|mat|nc>`` (one sweep at that bias, in one of
-the formats of :mod:`sysid_core.data.sweepfiles`; the answering side writes it under another name
+the formats of :mod:`sysid_core.formats.sweepfiles`; the answering side writes it under another name
 and renames it, so that it appears complete) or ``error-000k.txt`` (its text becomes the run's
 device error). An answer that is not a valid measurement (not complex, other frequencies,
 non-finite, a file that cannot be read) is moved to ``rejected/`` with the reason and the device
@@ -34,9 +34,10 @@ import xarray as xr
 from annotated_types import Gt
 
 from sysid_core.data.io import write_json
-from sysid_core.data.sweepfiles import SWEEP_FORMATS, read_sweep
 from sysid_core.device.measuring import check_answer
 from sysid_core.errors import BiasLimitError, ConfigError, DataError, DeviceError
+from sysid_core.formats.engine import sweep_extensions
+from sysid_core.formats.sweepfiles import read_sweep
 
 __all__ = ["ExchangeDevice"]
 
@@ -160,8 +161,9 @@ class ExchangeDevice:
         f = np.asarray(frequencies_hz, dtype=float)
         k, earlier = self._request(b, f)
         stem = f"{k:04d}"
-        others = ", ".join(ext for ext in SWEEP_FORMATS[1:])
-        names = f"response-{stem}{SWEEP_FORMATS[0]} (or {others})"
+        extensions = sweep_extensions()
+        others = ", ".join(ext for ext in extensions[1:])
+        names = f"response-{stem}{extensions[0]} (or {others})"
         setting = ", ".join(f"{e} = {v:.6g} V" for e, v in zip(self.electrodes, b, strict=True))
         self._say(
             f"exchange: request-{stem}.json: set {setting}, measure {f[0]:.6g}-{f[-1]:.6g} Hz "
@@ -176,7 +178,7 @@ class ExchangeDevice:
                 raise DeviceError(
                     f"exchange: the answer to request-{stem}.json is an error: {text}"
                 )
-            for ext in SWEEP_FORMATS:
+            for ext in extensions:
                 path = self.dir / f"response-{stem}{ext}"
                 if path.exists():
                     answer = self._read(path, f, rejected)

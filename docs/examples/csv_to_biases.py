@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 
 from sysid_core import fit, predict_bias
-from sysid_core.data.manifest import load_data
+from sysid_core.formats.manifest import load_data
 from sysid_core.run.plots import fit_figure, save_figure
 
 manifest = Path(sys.argv[1] if len(sys.argv) > 1 else "examples/measured/manifest.toml")

@@ -21,23 +21,24 @@ import typer
 import xarray as xr
 
 from sysid_core.cli.app import command, out
-from sysid_core.data.columnguess import guess_column_map
 from sysid_core.data.io import check_output_file
-from sysid_core.data.manifest import (
+from sysid_core.data.schema import measured_mask, save_dataset
+from sysid_core.errors import FileFormatError, ManifestError, OutputError
+from sysid_core.formats.columnguess import guess_column_map
+from sysid_core.formats.export import export_extension
+from sysid_core.formats.manifest import (
     data_files,
     export_dataset,
     export_files,
     load_data,
     load_manifest,
 )
-from sysid_core.data.schema import measured_mask, save_dataset
-from sysid_core.errors import ManifestError, OutputError
 
 __all__ = ["ExportFormat", "export_cmd", "import_cmd"]
 
 
 class ExportFormat(enum.StrEnum):
-    """The response-file formats of ``sysid export``."""
+    """The built-in response-file formats of ``sysid export`` (a format plugin adds its own)."""
 
     csv = "csv"
     s2p = "s2p"
@@ -99,23 +100,31 @@ def export_cmd(
     data: Annotated[Path, typer.Argument(help="Data set (netCDF) or manifest (.toml).")],
     out_dir: Annotated[Path, typer.Option("--out", help="Folder for the files and manifest.")],
     fmt: Annotated[
-        ExportFormat,
-        typer.Option("--format", case_sensitive=False, help="Format of the response files."),
-    ] = ExportFormat.csv,
+        str,
+        typer.Option(
+            "--format",
+            help="Format of the response files: csv, s2p, mat, nc, or a format plugin's name.",
+        ),
+    ] = ExportFormat.csv.value,
     force: Annotated[
         bool,
         typer.Option("--force", help="Write into a folder that is not empty, over its files."),
     ] = False,
 ) -> None:
     """Write one response file per experiment of DATA and a manifest.toml into a folder."""
+    try:
+        export_extension(fmt)
+    except FileFormatError as exc:
+        raise typer.BadParameter(str(exc), param_hint="--format") from exc
     if out_dir.exists() and not out_dir.is_dir():
         raise OutputError(f"refusing to write into {out_dir}: not a folder")
     if out_dir.is_dir() and any(out_dir.iterdir()) and not force:
         raise OutputError(f"{out_dir} is not empty; pass --force to write into it")
     inputs = data_files(data)
     ds = load_data(data)
-    targets = export_files(ds, out_dir, fmt.value)
+    targets = export_files(ds, out_dir, fmt)
     for target in targets:
         check_output_file(target, inputs=inputs, force=force)
-    manifest = export_dataset(ds, out_dir, fmt.value)
-    out.print(f"wrote {len(targets) - 1} {fmt.value} file(s) and {manifest}: {_describe(ds)}")
+    manifest = export_dataset(ds, out_dir, fmt)
+    kind = targets[0].suffix.lstrip(".")
+    out.print(f"wrote {len(targets) - 1} {kind} file(s) and {manifest}: {_describe(ds)}")

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 from sysid_core.cli.app import command, err, out
@@ -45,11 +46,14 @@ def plugins_cmd(
     table = Table(title="sysid components")
     for col in ("kind", "name", "distribution", "plugin", "description"):
         table.add_column(col)
-    for r in rows:
-        table.add_row(r["kind"], r["name"], r["distribution"], r["plugin"], r["description"])
+    for r in rows:  # a plugin's text is shown as written, never read as rich markup
+        table.add_row(
+            *(escape(r[key]) for key in ("kind", "name", "distribution", "plugin")),
+            escape(r["description"]),
+        )
     out.print(table)
     for _, message in reg.failures:
-        err.print(f"[yellow]warning:[/] {message}")
+        err.print(f"[yellow]warning:[/] {escape(message)}")
 
 
 @command("fit")
@@ -92,7 +96,7 @@ def fit_cmd(
     """
     from sysid_core.api import fit
     from sysid_core.data.io import check_output_file
-    from sysid_core.data.manifest import data_files, load_data
+    from sysid_core.formats.manifest import data_files, load_data
 
     if stiffness not in ModelStructure.STIFFNESS_LAWS:
         raise ConfigError(

@@ -16,7 +16,7 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.clock.benchtime import acquisitions, points_per_frequency
-from sysid_core.data.runfolder import RunFolder
+from sysid_core.clock.runfolder import RunFolder
 from sysid_core.data.schema import experiment_from_measurement, point_times
 from sysid_core.device.measuring import GuardedDevice
 from sysid_core.errors import DeviceError, InvalidAnswerError

@@ -1,13 +1,11 @@
-"""Measured data: the data-set schema, its checks, and every file the toolkit reads or writes.
+"""The data set: measured frequency responses in memory, their schema and their checks.
 
-Lives here: the ``xarray`` schema of a multi-experiment data set and its netCDF files
-(:mod:`.schema`), the checks of a data set and of the rank condition (6) (:mod:`.validation`),
-atomic file writing (:mod:`.io`), the one reader of text files (:mod:`.textfile`), one sweep
-per file in CSV, Touchstone, MATLAB (v4 to v7.3,
-:mod:`.mat73`) and netCDF (:mod:`.sweepfiles`), instruments' text exports read with column maps
-(:mod:`.columnmap`, :mod:`.columnsweep`, :mod:`.columnguess`), manifests of measured experiments
-(:mod:`.manifest`, :mod:`.export`) and the reading of a run folder's measurements
-(:mod:`.runfolder`).
+Lives here: the ``xarray`` schema of a multi-experiment data set and its own netCDF files
+(:mod:`.schema`, per-point time stamps and noise in :mod:`.pointvars`), the checks of a data set
+and of the rank condition (6) (:mod:`.validation`), one sweep in memory and the checks every
+file format shares (:mod:`.sweep`), and atomic file writing (:mod:`.io`). The files a lab
+brings (response files in any format, column maps, manifests, exports) are
+:mod:`sysid_core.formats`; a run's folder is :mod:`sysid_core.clock.runfolder`.
 
 May import: :mod:`sysid_core.errors` and third-party libraries only.
 """

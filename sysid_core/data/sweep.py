@@ -1,6 +1,6 @@
 """One sweep in memory (a 2x2 complex response per frequency) and the checks all formats share.
 
-:mod:`sysid_core.data.sweepfiles` reads and writes sweeps in files.
+:mod:`sysid_core.formats.sweepfiles` reads and writes sweeps in files.
 """
 
 from __future__ import annotations
@@ -56,7 +56,7 @@ def make_sweep(
     Coordinates ``frequency`` (Hz), ``output`` (y1, y2), ``input`` (u1, u2) and, when given,
     ``time_s`` (each point's time stamp, seconds, the device's clock); attributes ``units``
     (the response's units, ``""`` if unknown) and ``source`` (where it came from). Nothing is
-    checked here; :func:`~sysid_core.data.sweepfiles.read_sweep` checks before it calls this.
+    checked here; :func:`~sysid_core.formats.sweepfiles.read_sweep` checks before it calls this.
     """
     return xr.DataArray(
         np.asarray(response, dtype=complex),

@@ -23,7 +23,7 @@ and in ``my_gyro/plugin.py``::
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import pluggy
 
@@ -45,6 +45,7 @@ __all__ = [
     "sysid_devices",
     "sysid_model_structures",
     "sysid_objectives",
+    "sysid_response_formats",
     "sysid_solvers",
     "sysid_tuning_criteria",
 ]
@@ -106,6 +107,19 @@ def sysid_tuning_criteria() -> Mapping[str, Callable[..., TuningCriterion]]:  # 
 
 
 @hookspec
+def sysid_response_formats() -> Mapping[str, Callable[[], Any]]:  # type: ignore[empty-body]
+    """Return the response-file formats this plugin provides.
+
+    Returns a mapping from format names (a manifest's ``format = ...``, ``sysid export
+    --format``) to factories called without arguments, each returning an engine: a subclass of
+    :class:`sysid_core.formats.engine.ResponseFormat` (its ``extensions``,
+    ``guess_can_open(path)``, ``open_sweep(path, **options)`` and, if it ``writes``,
+    ``write_sweep``). The built-in CSV, Touchstone, MATLAB, netCDF and column-mapped engines
+    come from the ``sysid_formats`` plugin this way.
+    """
+
+
+@hookspec
 def sysid_cli_commands() -> Mapping[str, Callable[..., None]]:  # type: ignore[empty-body]
     """Return the ``sysid`` commands this plugin adds.
 
@@ -125,5 +139,6 @@ KIND_HOOKS: dict[str, str] = {
     "objective": "sysid_objectives",
     "solver": "sysid_solvers",
     "tuning criterion": "sysid_tuning_criteria",
+    "response format": "sysid_response_formats",
     "command": "sysid_cli_commands",
 }

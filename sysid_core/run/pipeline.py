@@ -22,7 +22,7 @@ measurement starts that would end past it, :mod:`sysid_core.clock.budget`) or ``
 Everything is checked before the first measurement: the configuration, every plugin (built
 here), the device's protocol attributes, the bias limits, the sweeps and the first design. Every
 measurement is checked (:mod:`sysid_core.device.measuring`) and written to the run folder
-(:mod:`sysid_core.data.runfolder`) before anything else is done with it
+(:mod:`sysid_core.clock.runfolder`) before anything else is done with it
 (:class:`~sysid_core.clock.bench.Bench`). A run that stops can be continued with
 ``resume=True``: the loop is replayed and every measurement on disk is read, not measured again.
 """
@@ -40,8 +40,8 @@ from sysid_core.clock.bench import Bench
 from sysid_core.clock.benchtime import tones
 from sysid_core.clock.budget import Budget, minutes
 from sysid_core.clock.runclock import RunClock
+from sysid_core.clock.runfolder import RunFolder
 from sysid_core.data.io import write_json
-from sysid_core.data.runfolder import RunFolder
 from sysid_core.device.measuring import GuardedDevice, check_bias
 from sysid_core.device.protocol import Device, ReportsProgress
 from sysid_core.drift.tracker import Tracker

@@ -14,7 +14,7 @@ import pytest
 from sysid_cloverleaf import CloverleafGyro
 
 from sysid_core.clock.bench import Bench
-from sysid_core.data.runfolder import RunFolder
+from sysid_core.clock.runfolder import RunFolder
 from sysid_core.data.schema import load_dataset
 from sysid_core.device.measuring import GuardedDevice
 from sysid_core.errors import BudgetSpentError

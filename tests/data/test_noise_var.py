@@ -10,9 +10,7 @@ import xarray as xr
 from sysid_cloverleaf import CloverleafGyro
 
 from sysid_core import errors
-from sysid_core.data.export import export_dataset
-from sysid_core.data.manifest import load_manifest
-from sysid_core.data.runfolder import RunFolder
+from sysid_core.clock.runfolder import RunFolder
 from sysid_core.data.schema import (
     RESPONSE_DIMS,
     concat_experiments,
@@ -22,8 +20,10 @@ from sysid_core.data.schema import (
     point_noise,
     save_dataset,
 )
-from sysid_core.data.sweepfiles import read_sweep, write_sweep
 from sysid_core.data.validation import validate
+from sysid_core.formats.export import export_dataset
+from sysid_core.formats.manifest import load_manifest
+from sysid_core.formats.sweepfiles import read_sweep, write_sweep
 
 DEVICE = CloverleafGyro(seed=7)
 TUNED = ["B1", "B2"]

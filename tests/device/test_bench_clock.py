@@ -19,9 +19,9 @@ from sysid_cloverleaf import CloverleafGyro
 from sysid_core import tune
 from sysid_core.cli import main
 from sysid_core.data import concat_experiments, load_dataset, point_times
-from sysid_core.data.manifest import export_dataset, load_manifest
-from sysid_core.data.sweepfiles import read_sweep, write_sweep
 from sysid_core.errors import ConfigError, FileFormatError
+from sysid_core.formats.manifest import export_dataset, load_manifest
+from sysid_core.formats.sweepfiles import read_sweep, write_sweep
 
 F = np.linspace(4420.0, 4435.0, 31)
 ZERO = [0.0, 0.0, 0.0]

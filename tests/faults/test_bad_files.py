@@ -2,7 +2,7 @@
 
 Through the CLI (``sysid import`` of a manifest, ``sysid import --guess``, ``sysid fit``): exit
 status 1, one line ``sysid: error: ...``, and the user's files unchanged. The reader
-(:mod:`sysid_core.data.textfile`) checks a file's size before it reads a byte and its first
+(:mod:`sysid_core.formats.textfile`) checks a file's size before it reads a byte and its first
 block for NUL before it reads the rest; the tests count the bytes read, not the time.
 """
 
@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import sysid_core.data.textfile as textfile
+import sysid_core.formats.textfile as textfile
 from sysid_core.cli import main
 from sysid_core.data.sweep import CSV_HEADER
-from sysid_core.data.sweepfiles import read_sweep
 from sysid_core.errors import DeviceError, FileFormatError
+from sysid_core.formats.sweepfiles import read_sweep
 
 ROW = "4385,1,2,3,4,5,6,7,8"
 ROW2 = "4386,1,2,3,4,5,6,7,8"
@@ -187,7 +187,7 @@ def test_a_clock_in_ticks_is_refused_unless_the_map_gives_its_rate(
     """A lock-in's tick count mapped as seconds spans 114 years in one sweep: refused, naming the
     column and the keys to set; with ``time_unit = "ticks"`` and ``ticks_per_s`` it reads as
     a point every 2 s."""
-    from sysid_core.data.manifest import load_manifest
+    from sysid_core.formats.manifest import load_manifest
 
     line = _refused(capsys, ["import", str(_lockin(tmp_path, ""))])
     assert "lockin.csv" in line and "timestamp" in line and "ticks_per_s" in line, line

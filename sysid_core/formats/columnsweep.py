@@ -1,13 +1,13 @@
-"""Sweeps from text exports read with a column map (:mod:`sysid_core.data.columnmap`).
+"""Sweeps from text exports read with a column map (:mod:`sysid_core.formats.columnmap`).
 
 :func:`read_columns` reads one experiment's files (one file holding the whole response, one file
 per drive input, or one file per channel) and gives the sweep that
-:func:`~sysid_core.data.sweepfiles.read_sweep` gives: complex, ``(frequency, output, input)``,
+:func:`~sysid_core.formats.sweepfiles.read_sweep` gives: complex, ``(frequency, output, input)``,
 frequencies in Hz, the optional ``time_s``, the same checks. Every error is a
 :class:`~sysid_core.errors.FileFormatError` naming the file, the line and the column with the
 map's key, e.g. ``exp0-u1.csv, line 7: column 'theta1' (y1.phase_deg) is 'n/a', not a number``.
 
-Text is read by :mod:`sysid_core.data.textfile` (its size, NUL bytes and line lengths checked
+Text is read by :mod:`sysid_core.formats.textfile` (its size, NUL bytes and line lengths checked
 first; UTF-16 with its byte-order mark, UTF-8, else Latin-1).
 """
 
@@ -21,10 +21,10 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from sysid_core.data.columnmap import CHANNEL_KEYS, FREQUENCY_UNITS, LAYOUTS, ColumnMap
 from sysid_core.data.sweep import check_sweep, check_times, make_sweep
-from sysid_core.data.textfile import read_text, split_fields
 from sysid_core.errors import FileFormatError
+from sysid_core.formats.columnmap import CHANNEL_KEYS, FREQUENCY_UNITS, LAYOUTS, ColumnMap
+from sysid_core.formats.textfile import read_text, split_fields
 
 __all__ = ["decode_text", "read_columns", "split_fields"]
 
@@ -33,7 +33,7 @@ GRID_RTOL = 1e-9
 
 
 def decode_text(path: Path) -> str:
-    """The text of a file, checked and decoded (:func:`sysid_core.data.textfile.read_text`)."""
+    """The text of a file, checked and decoded (:func:`sysid_core.formats.textfile.read_text`)."""
     return read_text(path)
 
 
@@ -59,12 +59,12 @@ def read_columns(
         response, ``{"u1": ..., "u2": ...}`` for one file per drive input, ``{"y1_u1": ...,
         "y1_u2": ..., "y2_u1": ..., "y2_u2": ...}`` for one file per channel.
     column_map : ColumnMap
-        Where each file's numbers are (:func:`~sysid_core.data.columnmap.parse_column_map`).
+        Where each file's numbers are (:func:`~sysid_core.formats.columnmap.parse_column_map`).
 
     Returns
     -------
     xarray.DataArray
-        As :func:`~sysid_core.data.sweepfiles.read_sweep` returns (``source``: the files, joined
+        As :func:`~sysid_core.formats.sweepfiles.read_sweep` returns (``source``: the files, joined
         with ``", "``). With several files, the frequencies are the first file's (the others
         must agree within 1e-9, relative) and so are the time stamps.
 

@@ -1,4 +1,4 @@
-"""Manifests of measured experiments (``sysid_core.data.manifest``) and ``sysid import`` /
+"""Manifests of measured experiments (``sysid_core.formats.manifest``) and ``sysid import`` /
 ``export`` / ``fit MANIFEST.toml``: files from independent writers, per-experiment grids, exact
 round trips in every format (API and command line), one-line errors naming manifest and experiment,
 the rank condition, and the same model from a manifest as from the imported netCDF file.
@@ -17,7 +17,14 @@ import xarray as xr
 from sysid_cloverleaf import CloverleafGyro
 
 from sysid_core.cli import main
-from sysid_core.data.manifest import (
+from sysid_core.data.schema import load_dataset, make_dataset, save_dataset
+from sysid_core.errors import (
+    FileFormatError,
+    ManifestError,
+    RankConditionError,
+    TooFewExperimentsError,
+)
+from sysid_core.formats.manifest import (
     EXPORT_FORMATS,
     MANIFEST_NAME,
     data_files,
@@ -27,14 +34,7 @@ from sysid_core.data.manifest import (
     load_manifest,
     read_manifest,
 )
-from sysid_core.data.schema import load_dataset, make_dataset, save_dataset
-from sysid_core.data.sweepfiles import CSV_HEADER
-from sysid_core.errors import (
-    FileFormatError,
-    ManifestError,
-    RankConditionError,
-    TooFewExperimentsError,
-)
+from sysid_core.formats.sweepfiles import CSV_HEADER
 
 BIASES = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]  # the paper's, B3 held at 0 V
 # Per-experiment grids over 4385-4445 Hz (the paper's m_k points each), 61 points at most.
@@ -273,3 +273,27 @@ def test_fit_manifest_equals_fit_of_imported_data(
     sweep = csv_manifest.parent / "sweeps" / "sweep-0.csv"
     assert main(["fit", str(csv_manifest), "--out", str(sweep), "--force"]) == 1
     assert "refusing to write over the input file" in capsys.readouterr().err
+
+
+def test_a_format_key_names_the_engine_of_files_without_its_extension(
+    tmp_path: Path, measured: xr.Dataset
+) -> None:
+    names = []
+    for k in range(3):
+        keep = np.asarray(measured["measured"].values[k], dtype=bool)
+        f = measured["frequency"].values[keep]
+        name = csv_file(tmp_path / f"exp{k}.csv", f, measured["response"].values[k][keep])
+        (tmp_path / name).rename(tmp_path / f"exp{k}.dat")  # an instrument's own extension
+        names.append(f"exp{k}.dat")
+    path = tmp_path / "m.toml"
+    path.write_text(manifest_text(names, [b[:2] for b in BIASES], 'format = "csv"'))
+    ds = load_manifest(path)
+    assert np.array_equal(ds["response"].values, measured["response"].values, equal_nan=True)
+    assert [e.format for e in read_manifest(path).experiments] == ["csv"] * 3
+
+    path.write_text(manifest_text(names, [b[:2] for b in BIASES], 'format = "excel"'))
+    with pytest.raises(ManifestError, match=r"format is 'excel'; expected one of .*csv"):
+        read_manifest(path)
+    path.write_text(manifest_text(names, [b[:2] for b in BIASES]))
+    with pytest.raises(FileFormatError, match=r"exp0\.dat: unknown response-file extension"):
+        load_manifest(path)

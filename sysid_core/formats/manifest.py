@@ -10,7 +10,7 @@ A manifest (``docs/measured-data.md``)::
     file = "exp0.csv"                  # relative to the manifest; .csv, .s2p, .mat or .nc
 
 Files that are not in the toolkit's own layout (an instrument's text export) are read with a
-column map (:mod:`sysid_core.data.columnmap`): a top-level ``[columns]`` table for every
+column map (:mod:`sysid_core.formats.columnmap`): a top-level ``[columns]`` table for every
 experiment, overridden key by key by an experiment's ``[experiment.columns]``. An experiment may
 then have several files, ``files = { u1 = "a.csv", u2 = "b.csv" }`` (one per drive input) or
 ``files = { y1_u1 = ..., y1_u2 = ..., y2_u1 = ..., y2_u2 = ... }`` (one per channel), instead of
@@ -18,12 +18,12 @@ then have several files, ``files = { u1 = "a.csv", u2 = "b.csv" }`` (one per dri
 as always.
 
 * :func:`read_manifest`: the manifest's contents, checked (no response file is read).
-* :func:`load_manifest`: every response file read (:func:`sysid_core.data.sweepfiles.read_sweep`,
-  or :func:`sysid_core.data.columnsweep.read_columns` with a column map), the data set built
+* :func:`load_manifest`: every response file read (:func:`sysid_core.formats.sweepfiles.read_sweep`,
+  or :func:`sysid_core.formats.columnsweep.read_columns` with a column map), the data set built
   (:func:`sysid_core.data.schema.make_dataset`; grids may differ) and validated
   (:func:`sysid_core.data.validation.validate`, rank condition (6) included).
 * :func:`export_dataset`: the other way, one response file per experiment and a manifest
-  (:mod:`sysid_core.data.export`).
+  (:mod:`sysid_core.formats.export`).
 * :func:`load_data` / :func:`data_files`: a data path of either kind (``.toml`` or netCDF).
 
 Experiments are numbered from 0 in the order of the ``[[experiment]]`` tables; every error names
@@ -42,13 +42,13 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from sysid_core.data.columnmap import LAYOUTS, ColumnMap, parse_column_map
-from sysid_core.data.columnsweep import read_columns
-from sysid_core.data.export import EXPORT_FORMATS, MANIFEST_NAME, export_dataset, export_files
 from sysid_core.data.schema import load_dataset, make_dataset
-from sysid_core.data.sweepfiles import read_sweep
 from sysid_core.data.validation import validate
 from sysid_core.errors import DataError, FileFormatError, ManifestError
+from sysid_core.formats.columnmap import LAYOUTS, ColumnMap, experiment_column_map
+from sysid_core.formats.engine import format_names
+from sysid_core.formats.export import EXPORT_FORMATS, MANIFEST_NAME, export_dataset, export_files
+from sysid_core.formats.sweepfiles import read_sweep
 
 __all__ = [
     "EXPORT_FORMATS",
@@ -63,10 +63,9 @@ __all__ = [
     "read_manifest",
 ]
 
-_TOP_KEYS = ("device", "structure_potential_v", "electrodes", "columns", "experiment")
-_EXPERIMENT_KEYS = ("bias_v", "file", "files", "columns")
-#: Formats with their own reader: a column map does not apply to them.
-_OWN_FORMATS = (".s2p", ".mat", ".nc")
+_TOP_KEYS = ("device", "structure_potential_v", "electrodes", "format", "columns", "experiment")
+_EXPERIMENT_KEYS = ("bias_v", "file", "files", "format", "columns")
+_TEXT_FORMATS = ("csv", "columns")
 
 
 @dataclass(frozen=True)
@@ -75,7 +74,9 @@ class ManifestExperiment:
 
     ``file`` is its response file (the first of ``files`` when it has several); ``files`` gives
     every file with its key (``""`` for a single file, ``u1``/``u2`` or ``y1_u1`` ...);
-    ``columns`` is the column map it is read with, or ``None`` (the file's own format).
+    ``columns`` is the column map it is read with, or ``None`` (the file's own format);
+    ``format`` the engine the manifest names for it (``format = ...``), or ``None`` (the engine
+    that claims the file by its extension, :mod:`sysid_core.formats.engine`).
     """
 
     index: int
@@ -83,6 +84,7 @@ class ManifestExperiment:
     file: Path
     files: tuple[tuple[str, Path], ...] = ()
     columns: ColumnMap | None = None
+    format: str | None = None
 
     def __post_init__(self) -> None:
         """Without ``files`` (made as before they existed): the one ``file``."""
@@ -141,7 +143,12 @@ def read_manifest(path: str | os.PathLike[str]) -> Manifest:
     if not isinstance(top, dict):
         raise ManifestError(f"{path}: columns is {top!r}; expected a table ([columns])")
     tables = _experiment_tables(doc["experiment"], path)
-    experiments = [_experiment(k, table, path, electrodes, top) for k, table in enumerate(tables)]
+    names = format_names()
+    top_format = _format(doc.get("format"), str(path), names)
+    experiments = [
+        _experiment(k, table, path, electrodes, top, top_format, names)
+        for k, table in enumerate(tables)
+    ]
     return Manifest(path, vg, tuple(electrodes), tuple(experiments), device)
 
 
@@ -185,12 +192,31 @@ def _experiment_tables(tables: object, path: Path) -> list[dict[str, Any]]:
     return tables
 
 
+def _format(value: object, where: str, names: list[str]) -> str | None:
+    """A ``format`` key: ``None``, or the name of a registered engine."""
+    if value is None:
+        return None
+    if not isinstance(value, str) or value not in names:
+        raise ManifestError(
+            f"{where}: format is {value!r}; expected one of {', '.join(names)} "
+            "(sysid plugins lists them)"
+        )
+    return value
+
+
 def _experiment(
-    k: int, table: dict[str, Any], path: Path, electrodes: list[str], top: dict[str, Any]
+    k: int,
+    table: dict[str, Any],
+    path: Path,
+    electrodes: list[str],
+    top: dict[str, Any],
+    top_format: str | None = None,
+    names: list[str] | None = None,
 ) -> ManifestExperiment:
     """Experiment ``k`` of the manifest at ``path``, checked; its response files must exist.
 
-    ``top`` is the manifest's ``[columns]`` table (empty without one).
+    ``top`` is the manifest's ``[columns]`` table (empty without one), ``top_format`` its
+    ``format`` (an experiment's own overrides it).
     """
     where = f"{path}, experiment {k}"
     _unknown(table, _EXPERIMENT_KEYS, where)
@@ -205,8 +231,20 @@ def _experiment(
         )
     values = tuple(_number(b, f"{where}: bias_v[{p}]") for p, b in enumerate(bias))
     files = _files(table, where, path)
-    columns = _column_map(table, top, where, files)
-    return ManifestExperiment(k, values, files[0][1], files, columns)
+    fmt = _format(table.get("format", top_format), where, names or format_names())
+    if fmt is not None and fmt not in _TEXT_FORMATS:
+        if len(files) > 1 or "columns" in table:
+            raise ManifestError(
+                f"{where}: format = {fmt!r} reads one file of its own format; a column map "
+                "(and files = {...}) is for text exports"
+            )
+        return ManifestExperiment(k, values, files[0][1], files, None, fmt)
+    columns = experiment_column_map(table, top if fmt != "csv" else {}, where, files)
+    if fmt == "columns" and columns is None:
+        raise ManifestError(
+            f"{where}: format = 'columns' needs a column map ([columns] or [experiment.columns])"
+        )
+    return ManifestExperiment(k, values, files[0][1], files, columns, fmt)
 
 
 def _files(table: dict[str, Any], where: str, path: Path) -> tuple[tuple[str, Path], ...]:
@@ -240,53 +278,6 @@ def _files(table: dict[str, Any], where: str, path: Path) -> tuple[tuple[str, Pa
     return tuple(files)
 
 
-def _column_map(
-    table: dict[str, Any], top: dict[str, Any], where: str, files: tuple[tuple[str, Path], ...]
-) -> ColumnMap | None:
-    """The column map an experiment's files are read with, or ``None`` (their own format)."""
-    own = table.get("columns", {})
-    if not isinstance(own, dict):
-        raise ManifestError(f"{where}: columns is {own!r}; expected a table ([experiment.columns])")
-    text = [f for _, f in files if f.suffix.lower() not in _OWN_FORMATS]
-    if len(text) < len(files):
-        if len(files) > 1 or own:
-            raise ManifestError(
-                f"{where}: a column map reads text files only; "
-                f"{', '.join(f.name for _, f in files if f not in text)} has its own format"
-            )
-        return None  # a .s2p, .mat or .nc file: the manifest's [columns] do not apply
-    if not top and not own:
-        if len(files) > 1:
-            raise ManifestError(
-                f"{where}: several files need a column map ([columns] or [experiment.columns]) "
-                "saying which columns each file holds"
-            )
-        return None
-    tables = {key: "experiment.columns" if key in own else "columns" for key in {**top, **own}}
-    columns = parse_column_map({**top, **own}, where, tables)
-    keys, entries = LAYOUTS[columns.layout]
-    if tuple(key for key, _ in files) != keys:
-        raise ManifestError(
-            f"{where}: the column map names the channel(s) {', '.join(entries)}, which is for "
-            f"{_LAYOUT_FILES[columns.layout]}; this experiment has "
-            f"{_LAYOUT_FILES[_layout_of(files)]}"
-        )
-    return columns
-
-
-_LAYOUT_FILES = {
-    "file": "one file holding the whole response (file = ...)",
-    "input": "one file per drive input (files = { u1 = ..., u2 = ... })",
-    "channel": "one file per channel (files = { y1_u1 = ..., ... })",
-}
-
-
-def _layout_of(files: tuple[tuple[str, Path], ...]) -> str:
-    """The layout (:data:`~sysid_core.data.columnmap.LAYOUTS`) of an experiment's files."""
-    keys = tuple(key for key, _ in files)
-    return next(name for name, (layout, _) in LAYOUTS.items() if layout == keys)
-
-
 def load_manifest(path: str | os.PathLike[str]) -> xr.Dataset:
     """Read a manifest and its response files into a validated data set.
 
@@ -318,9 +309,10 @@ def load_manifest(path: str | os.PathLike[str]) -> xr.Dataset:
     for exp in manifest.experiments:
         try:
             if exp.columns is None:
-                sweeps.append(read_sweep(exp.file))
+                sweeps.append(read_sweep(exp.file, exp.format))
             else:
-                sweeps.append(read_columns(dict(exp.files), exp.columns))
+                by_key = dict(exp.files)
+                sweeps.append(read_sweep(exp.file, "columns", column_map=exp.columns, files=by_key))
         except FileFormatError as exc:
             raise FileFormatError(f"{manifest.path}, experiment {exp.index}: {exc}") from exc
     units = {str(s.attrs["units"]) for s in sweeps} - {""}

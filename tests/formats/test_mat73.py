@@ -1,7 +1,8 @@
-"""MATLAB v7.3 ``.mat`` files (``sysid_core.data.mat73``): written with h5py the way MATLAB writes
-them (``tests/exports.py``: MATLAB's 512-byte header, column-major datasets, ``MATLAB_class``,
-complex compound types, UTF-16 characters), read through :func:`read_sweep` exactly as the same
-sweep from a v5 file, in a manifest too, with the same checks and the same messages.
+"""MATLAB v7.3 ``.mat`` files (``sysid_core.formats.mat73``): written with h5py the way MATLAB
+writes them (``tests/exports.py``: MATLAB's 512-byte header, column-major datasets,
+``MATLAB_class``, complex compound types, UTF-16 characters), read through :func:`read_sweep`
+exactly as the same sweep from a v5 file, in a manifest too, with the same checks and the same
+messages.
 """
 
 from __future__ import annotations
@@ -17,9 +18,9 @@ from scipy.io import loadmat
 from sysid_cloverleaf import CloverleafGyro
 from test_sweepfiles import FREQS, mat_error_cases, savemat_v5
 
-from sysid_core.data.manifest import load_manifest
-from sysid_core.data.sweepfiles import read_sweep, write_sweep
 from sysid_core.errors import FileFormatError
+from sysid_core.formats.manifest import load_manifest
+from sysid_core.formats.sweepfiles import read_sweep, write_sweep
 
 
 @pytest.fixture(scope="module")

@@ -1,7 +1,7 @@
 """Exporting a data set as response files and a manifest (``docs/measured-data.md``).
 
 * :func:`export_dataset`: one response file per experiment (``exp0.csv``, ...) and a manifest
-  that :func:`sysid_core.data.manifest.load_manifest` reads back exactly.
+  that :func:`sysid_core.formats.manifest.load_manifest` reads back exactly.
 * :func:`export_files`: the files it writes.
 * :func:`toml_string`: a TOML basic string (for the manifests and column maps the toolkit writes).
 """
@@ -17,29 +17,40 @@ import xarray as xr
 
 from sysid_core.data.io import atomic_write
 from sysid_core.data.schema import make_dataset, measured_mask, point_times, save_dataset
-from sysid_core.data.sweepfiles import make_sweep, write_sweep
 from sysid_core.errors import FileFormatError, MissingBiasError
+from sysid_core.formats.engine import engines
+from sysid_core.formats.sweepfiles import make_sweep, write_sweep
 
-__all__ = ["EXPORT_FORMATS", "MANIFEST_NAME", "export_dataset", "export_files", "toml_string"]
+__all__ = [
+    "EXPORT_FORMATS",
+    "MANIFEST_NAME",
+    "export_dataset",
+    "export_extension",
+    "export_files",
+    "toml_string",
+]
 
-#: Formats of :func:`export_dataset` (the response files' extensions).
+#: The built-in formats of :func:`export_dataset` (the response files' extensions); any engine
+#: that writes (:mod:`sysid_core.formats.engine`) is one too, by its name or extension.
 EXPORT_FORMATS = ("csv", "s2p", "mat", "nc")
 #: The name of the manifest :func:`export_dataset` writes.
 MANIFEST_NAME = "manifest.toml"
 
 
-def _format(format: str) -> str:
+def export_extension(format: str) -> str:
+    """The extension (no dot) of export format ``format``: an extension or a writing engine."""
     fmt = str(format).lower().lstrip(".")
-    if fmt not in EXPORT_FORMATS:
-        raise FileFormatError(
-            f"unknown export format {format!r}; supported: {', '.join(EXPORT_FORMATS)}"
-        )
-    return fmt
+    writers = [e for e in engines() if e.writes and e.extensions]
+    for engine in writers:
+        if fmt == engine.name or f".{fmt}" in engine.extensions:
+            return engine.extensions[0].lstrip(".")
+    known = ", ".join(dict.fromkeys([*EXPORT_FORMATS, *(e.extensions[0][1:] for e in writers)]))
+    raise FileFormatError(f"unknown export format {format!r}; supported: {known}")
 
 
 def export_files(ds: xr.Dataset, folder: str | os.PathLike[str], format: str = "csv") -> list[Path]:
     """The files :func:`export_dataset` writes: ``exp0.<format>``, ... and the manifest last."""
-    fmt = _format(format)
+    fmt = export_extension(format)
     folder = Path(folder)
     names = [folder / f"exp{k}.{fmt}" for k in range(ds.sizes["experiment"])]
     return [*names, folder / MANIFEST_NAME]
@@ -80,7 +91,7 @@ def export_dataset(ds: xr.Dataset, folder: str | os.PathLike[str], format: str =
     format : {"csv", "s2p", "mat", "nc"}
         The response files' format (``nc``: one-experiment data sets, biases included).
     """
-    fmt = _format(format)
+    fmt = export_extension(format)
     folder = Path(folder)
     files = export_files(ds, folder, fmt)
     bias = np.asarray(ds["bias"].values, dtype=float)

@@ -25,13 +25,14 @@ map names follows the experiment's files (:data:`LAYOUTS`): ``y1_u1``, ``y1_u2``
 (``files = { y1_u1 = ..., ... }``).
 
 :func:`parse_column_map` checks a map (:class:`~sysid_core.errors.ManifestError`, one line naming
-the key); :mod:`sysid_core.data.columnsweep` reads files with it.
+the key); :mod:`sysid_core.formats.columnsweep` reads files with it.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from pydantic import (
@@ -44,7 +45,8 @@ from pydantic import (
     model_validator,
 )
 
-from sysid_core.errors import ManifestError
+from sysid_core.errors import FileFormatError, ManifestError
+from sysid_core.formats.engine import engine_for
 
 __all__ = [
     "CHANNEL_KEYS",
@@ -56,6 +58,7 @@ __all__ = [
     "ChannelColumns",
     "ColumnMap",
     "ColumnRef",
+    "experiment_column_map",
     "parse_column_map",
 ]
 
@@ -276,3 +279,68 @@ def _problem(error: Any, tables: Mapping[str, str]) -> str:
     given = error.get("input")
     shown = f" = {given!r}" if isinstance(given, str | int | float | bool) else ""
     return f"{key}{shown}: {message}"
+
+
+#: The engines that read text: the CSV's own header, or a column map.
+_TEXT_FORMATS = ("csv", "columns")
+
+
+def experiment_column_map(
+    table: dict[str, Any], top: dict[str, Any], where: str, files: tuple[tuple[str, Path], ...]
+) -> ColumnMap | None:
+    """The column map an experiment's files are read with, or ``None`` (their own format).
+
+    ``table``: the manifest's ``[[experiment]]`` table, ``top`` its ``[columns]`` (empty without
+    one), ``where`` the experiment in messages, ``files`` its files by layout key. Files that a
+    format engine other than the CSV's claims (``.s2p``, ``.mat``, ``.nc``, a plugin's) are read
+    by it, never with a map.
+    """
+    own = table.get("columns", {})
+    if not isinstance(own, dict):
+        raise ManifestError(f"{where}: columns is {own!r}; expected a table ([experiment.columns])")
+    text = [f for _, f in files if _is_text(f)]
+    if len(text) < len(files):
+        if len(files) > 1 or own:
+            raise ManifestError(
+                f"{where}: a column map reads text files only; "
+                f"{', '.join(f.name for _, f in files if f not in text)} has its own format"
+            )
+        return None  # a .s2p, .mat, .nc or plugin format's file: [columns] do not apply
+    if not top and not own:
+        if len(files) > 1:
+            raise ManifestError(
+                f"{where}: several files need a column map ([columns] or [experiment.columns]) "
+                "saying which columns each file holds"
+            )
+        return None
+    tables = {key: "experiment.columns" if key in own else "columns" for key in {**top, **own}}
+    columns = parse_column_map({**top, **own}, where, tables)
+    keys, entries = LAYOUTS[columns.layout]
+    if tuple(key for key, _ in files) != keys:
+        raise ManifestError(
+            f"{where}: the column map names the channel(s) {', '.join(entries)}, which is for "
+            f"{_LAYOUT_FILES[columns.layout]}; this experiment has "
+            f"{_LAYOUT_FILES[_layout_of(files)]}"
+        )
+    return columns
+
+
+def _is_text(file: Path) -> bool:
+    """Whether ``file`` is text a column map may read: no engine but the CSV's claims it."""
+    try:
+        return engine_for(file).name in _TEXT_FORMATS
+    except FileFormatError:
+        return True  # an instrument's export (.txt, .dat, ...): only a column map reads it
+
+
+_LAYOUT_FILES = {
+    "file": "one file holding the whole response (file = ...)",
+    "input": "one file per drive input (files = { u1 = ..., u2 = ... })",
+    "channel": "one file per channel (files = { y1_u1 = ..., ... })",
+}
+
+
+def _layout_of(files: tuple[tuple[str, Path], ...]) -> str:
+    """The layout (:data:`~sysid_core.formats.columnmap.LAYOUTS`) of an experiment's files."""
+    keys = tuple(key for key, _ in files)
+    return next(name for name, (layout, _) in LAYOUTS.items() if layout == keys)

@@ -19,10 +19,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from sysid_core.data.columnsweep import decode_text, split_fields
-from sysid_core.data.export import toml_string
 from sysid_core.data.sweep import CSV_COLUMNS, TIMED_CSV_COLUMNS
 from sysid_core.errors import FileFormatError
+from sysid_core.formats.columnsweep import decode_text, split_fields
+from sysid_core.formats.export import toml_string
 
 __all__ = ["Guess", "guess_column_map"]
 

@@ -1,4 +1,4 @@
-"""Response files (``sysid_core.data.sweepfiles``): each format read from files written by
+"""Response files (``sysid_core.formats.sweepfiles``): each format read from files written by
 independent writers (the ``csv`` module, scikit-rf's ``write_touchstone``, ``scipy.io.savemat``,
 h5py as MATLAB writes v7.3, xarray), exact round trips through :func:`write_sweep`, and one-line
 errors naming file and line/variable (MATLAB v7.3: ``test_mat73.py``).
@@ -19,18 +19,18 @@ from scipy.io import savemat
 from sysid_cloverleaf import CloverleafGyro
 
 from sysid_core.data.schema import experiment_from_measurement, save_dataset
-from sysid_core.data.sweepfiles import (
-    CSV_HEADER,
-    SWEEP_FORMATS,
-    make_sweep,
-    read_sweep,
-    write_sweep,
-)
 from sysid_core.errors import (
     DimensionError,
     FileFormatError,
     FrequencyGridError,
     NonFiniteDataError,
+)
+from sysid_core.formats.sweepfiles import (
+    CSV_HEADER,
+    SWEEP_FORMATS,
+    make_sweep,
+    read_sweep,
+    write_sweep,
 )
 
 FREQS = np.linspace(4385.0, 4445.0, 61)

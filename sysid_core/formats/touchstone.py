@@ -1,4 +1,4 @@
-"""Response files in Touchstone ``.s2p``, with scikit-rf (see :mod:`sysid_core.data.sweepfiles`)."""
+"""Response files in Touchstone ``.s2p``, with scikit-rf (:mod:`sysid_core.formats.sweepfiles`)."""
 
 from __future__ import annotations
 
@@ -14,10 +14,10 @@ from sysid_core.data.sweep import (
     check_sweep,
     make_sweep,
 )
-from sysid_core.data.textfile import read_text
 from sysid_core.errors import (
     FileFormatError,
 )
+from sysid_core.formats.textfile import read_text
 
 __all__ = ["read_s2p", "s2p_text"]
 

@@ -13,7 +13,7 @@ then the subsystem offset, the version ``0x0200`` and the endian mark ``IM``) in
 
 :func:`load_mat73` gives the variables as ``scipy.io.loadmat(..., squeeze_me=False)`` gives a
 v4-v7 file's (numeric arrays of at least two dimensions in MATLAB's order, a character array as
-an array of strings, one per row), so that :mod:`sysid_core.data.matsweep` checks both alike.
+an array of strings, one per row), so that :mod:`sysid_core.formats.matsweep` checks both alike.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Response files in CSV: the toolkit's own layout (see :mod:`sysid_core.data.sweepfiles`)."""
+"""Response files in CSV: the toolkit's own layout (see :mod:`sysid_core.formats.sweepfiles`)."""
 
 from __future__ import annotations
 
@@ -18,8 +18,8 @@ from sysid_core.data.sweep import (
     check_times,
     make_sweep,
 )
-from sysid_core.data.textfile import read_text, split_fields
 from sysid_core.errors import FileFormatError
+from sysid_core.formats.textfile import read_text, split_fields
 
 __all__ = ["csv_text", "read_csv"]
 

@@ -1,7 +1,7 @@
-"""Response files in MATLAB ``.mat`` (see :mod:`sysid_core.data.sweepfiles`).
+"""Response files in MATLAB ``.mat`` (see :mod:`sysid_core.formats.sweepfiles`).
 
 Versions 4 to 7 are read with ``scipy.io.loadmat``, v7.3 (HDF5) with h5py
-(:mod:`sysid_core.data.mat73`); both are checked alike. Files are written as v5 (``savemat``).
+(:mod:`sysid_core.formats.mat73`); both are checked alike. Files are written as v5 (``savemat``).
 """
 
 from __future__ import annotations
@@ -12,7 +12,6 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from sysid_core.data.mat73 import is_mat73, load_mat73
 from sysid_core.data.sweep import (
     check_sweep,
     check_times,
@@ -21,6 +20,7 @@ from sysid_core.data.sweep import (
 from sysid_core.errors import (
     FileFormatError,
 )
+from sysid_core.formats.mat73 import is_mat73, load_mat73
 
 __all__ = ["read_mat", "write_mat"]
 

@@ -1,4 +1,4 @@
-"""Column maps in the manifest (``sysid_core.data.columnmap``, ``.columnsweep``) and
+"""Column maps in the manifest (``sysid_core.formats.columnmap``, ``.columnsweep``) and
 ``sysid import --guess`` (``.columnguess``): the exports labs really have, written by the tests in
 the layouts the instruments' manuals document (``tests/exports.py``), read through a manifest and
 compared with the same sweeps in the toolkit's own CSV (1e-12, relative; time stamps exact); the
@@ -25,12 +25,12 @@ from exports import (
 from sysid_cloverleaf import CloverleafGyro
 
 from sysid_core.cli import main
-from sysid_core.data.columnguess import guess_column_map
-from sysid_core.data.columnmap import parse_column_map
-from sysid_core.data.columnsweep import read_columns
-from sysid_core.data.manifest import data_files, export_dataset, load_manifest, read_manifest
 from sysid_core.data.schema import make_dataset
 from sysid_core.errors import FileFormatError, ManifestError
+from sysid_core.formats.columnguess import guess_column_map
+from sysid_core.formats.columnmap import parse_column_map
+from sysid_core.formats.columnsweep import read_columns
+from sysid_core.formats.manifest import data_files, export_dataset, load_manifest, read_manifest
 
 BIASES = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]  # the paper's, on B1 and B2 (B3 held at 0 V)
 GRIDS = [np.linspace(4385.0, 4445.0, 61), np.linspace(4386.0, 4444.0, 59)]
@@ -601,7 +601,7 @@ def test_other_layouts_read_exactly(tmp_path: Path, truth: xr.Dataset) -> None:
 
 
 def test_a_manifest_experiment_made_with_one_file_lists_it() -> None:
-    from sysid_core.data.manifest import ManifestExperiment
+    from sysid_core.formats.manifest import ManifestExperiment
 
     e = ManifestExperiment(0, (0.0,), Path("a.csv"))
     assert e.files == (("", Path("a.csv")),) and e.columns is None
