@@ -421,6 +421,44 @@ def test_rooms_sizes_and_docstrings() -> None:
         assert "Lives here" in doc and "May import" in doc, init
 
 
+#: The one module that may look for optional attributes and methods on a device.
+CAPABILITY_READER = "device/capabilities.py"
+
+
+def device_probes(source: str) -> list[str]:
+    """The ``getattr``/``hasattr`` calls in ``source`` whose object is a device."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if (
+            isinstance(node, ast.Call)
+            and isinstance(node.func, ast.Name)
+            and node.func.id in ("getattr", "hasattr")
+            and node.args
+        ):
+            target = ast.unparse(node.args[0])
+            if "device" in target.lower() or target in ("raw", "dev"):
+                found.append(ast.unparse(node))
+    return found
+
+
+def test_the_probe_finder_sees_a_device_getattr() -> None:
+    source = "x = getattr(self.device.device, 'tones', None)\ny = getattr(cfg, 'tones', 1)\n"
+    assert device_probes(source) == ["getattr(self.device.device, 'tones', None)"]
+
+
+def test_only_the_capability_reader_probes_a_device() -> None:
+    """A device's optional capabilities and methods are read once, by ``device.capabilities``
+    (the protocol check ``device.protocol.check_device`` looks for the required attributes)."""
+    allowed = {CAPABILITY_READER, "device/protocol.py"}
+    offenders = {
+        str(p.relative_to(CORE)): probes
+        for p in CORE.rglob("*.py")
+        if str(p.relative_to(CORE)) not in allowed
+        and (probes := device_probes(p.read_text(encoding="utf-8")))
+    }
+    assert not offenders, offenders
+
+
 def test_defaults_agree_everywhere() -> None:
     """One set of defaults: the structures, fit(), the config's [model] and `sysid fit`."""
     import inspect
@@ -793,7 +831,8 @@ def test_tests_mirror_the_rooms() -> None:
     tests of the whole (architecture, docs, the documentation site) and the shared helpers."""
     tests = ROOT / "tests"
     rooms = {p.name for p in tests.iterdir() if p.is_dir() and p.name in ROOMS}
-    assert rooms >= {"data", "model", "identification", "tuning", "device", "plugin", "run"}
+    assert rooms >= {"data", "formats", "model", "identification", "tuning", "device", "plugin"}
+    assert rooms >= {"clock", "measure", "drift", "verdict", "run"}
     assert rooms >= {"batch", "cli"}
     for room in rooms:
         assert list((tests / room).glob("test_*.py")), room

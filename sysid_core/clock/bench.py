@@ -18,6 +18,7 @@ import xarray as xr
 from sysid_core.clock.benchtime import acquisitions, points_per_frequency
 from sysid_core.clock.runfolder import RunFolder
 from sysid_core.data.schema import experiment_from_measurement, point_times
+from sysid_core.device.capabilities import optional_method
 from sysid_core.device.measuring import GuardedDevice
 from sysid_core.errors import DeviceError, InvalidAnswerError
 
@@ -175,8 +176,8 @@ class Bench:
         run's own error is what is raised; when the run succeeded, a failed close is a
         :class:`~sysid_core.errors.DeviceError`: the bench may not be safe.
         """
-        close = getattr(self.device.device, "close", None)
-        if not self.owns_device or not callable(close):
+        close = optional_method(self.device.device, "close")
+        if not self.owns_device or close is None:
             return
         try:
             close()

@@ -18,9 +18,14 @@ attribute                     type         what it states
 ``bias_resolution``           float > 0    the DAC's step in volts
 ============================  ===========  =================================================
 
-:func:`read_capabilities` is the only place that looks for them on a device
+A device may also offer optional methods (:data:`OPTIONAL_METHODS`: ``applied_bias(bias)``,
+the bias its DAC really applies; ``close()``, made safe at the end of a run) and name the model
+structure it follows (``structure``, for a study's ``structures = "auto"``).
+
+This module is the only place that looks for any of them on a device: :func:`read_capabilities`
 (:class:`~sysid_core.device.measuring.GuardedDevice` calls it once and keeps the result as its
-``capabilities``).
+``capabilities``), :func:`optional_method` and :func:`named_structure`;
+``tests/test_architecture.py`` fails on a ``getattr`` on a device anywhere else.
 """
 
 from __future__ import annotations
@@ -34,7 +39,21 @@ import numpy as np
 
 from sysid_core.errors import DeviceError
 
-__all__ = ["CAPABILITIES", "Capabilities", "StatesCapabilities", "read_capabilities"]
+__all__ = [
+    "CAPABILITIES",
+    "OPTIONAL_METHODS",
+    "Capabilities",
+    "StatesCapabilities",
+    "named_structure",
+    "optional_method",
+    "read_capabilities",
+]
+
+#: The optional methods a device may offer, and what each does.
+OPTIONAL_METHODS: dict[str, str] = {
+    "applied_bias": "applied_bias(bias): the bias the device's DAC really applies for bias",
+    "close": "close(): make the bench safe and release it when the run ends",
+}
 
 
 @runtime_checkable
@@ -132,3 +151,19 @@ def read_capabilities(device: object, name: str = "device") -> Capabilities:
             )
         found[attr] = checked
     return Capabilities(**found)
+
+
+def optional_method(device: object, name: str) -> Callable[..., Any] | None:
+    """The optional method ``name`` of ``device`` (:data:`OPTIONAL_METHODS`), or None."""
+    if name not in OPTIONAL_METHODS:
+        raise ValueError(
+            f"{name!r} is not an optional device method ({', '.join(OPTIONAL_METHODS)})"
+        )
+    method = getattr(device, name, None)
+    return method if callable(method) else None
+
+
+def named_structure(device: object) -> str | None:
+    """The model structure ``device`` names (its ``structure`` attribute), or None."""
+    name = getattr(device, "structure", None)
+    return name if isinstance(name, str) and name else None

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from sysid_core.device.capabilities import Capabilities, read_capabilities
+from sysid_core.device.capabilities import Capabilities, optional_method, read_capabilities
 from sysid_core.device.protocol import Device, SimulatedDevice, check_device
 from sysid_core.errors import BiasLimitError, DeviceError, InvalidAnswerError, SysidError
 
@@ -48,8 +48,8 @@ def applied_bias(device: object, bias: np.ndarray) -> np.ndarray | None:
     error, counts as not saying.
     """
     raw = device.device if isinstance(device, GuardedDevice) else device
-    method = getattr(raw, "applied_bias", None)
-    if not callable(method):
+    method = optional_method(raw, "applied_bias")
+    if method is None:
         return None
     try:
         values = np.asarray(method(np.asarray(bias, dtype=float)), dtype=float).reshape(-1)

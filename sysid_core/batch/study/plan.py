@@ -25,6 +25,7 @@ from sysid_core.batch.study.config import (
     StudySettings,
     load_study_config,
 )
+from sysid_core.device.capabilities import named_structure
 from sysid_core.device.protocol import Device
 from sysid_core.errors import ConfigError, SysidError
 from sysid_core.plugin.registry import Registry
@@ -72,8 +73,8 @@ def population_seeds(cfg: StudyConfig) -> list[int]:
 
 def device_structure(device: Device, seed: int) -> str:
     """The model structure a device names (its ``structure`` attribute), for ``auto``."""
-    name = getattr(device, "structure", None)
-    if not isinstance(name, str) or not name:
+    name = named_structure(device)
+    if name is None:
         raise ConfigError(
             f"[study] structures: {AUTO_STRUCTURE!r} needs a device that names its model "
             f"structure (a 'structure' attribute, as random-gyro has); the device with seed "
