@@ -23,7 +23,7 @@ from typing import Any
 
 import pytest
 
-__all__ = ["environment", "install", "remove_all"]
+__all__ = ["environment", "install", "remove_all", "run_python"]
 
 OFFLINE_HINTS = (
     "No matching distribution",
@@ -106,6 +106,23 @@ def environment() -> dict[str, str]:
     if _ROOT is not None:
         env["PYTHONPATH"] = os.pathsep.join([str(_ROOT), *filter(None, [env.get("PYTHONPATH")])])
     return env
+
+
+def run_python(code: str) -> str:
+    """Run ``code`` in a new Python process that sees the installed plugins; its stdout.
+
+    Fails the calling test, with the process's output, if the code fails.
+    """
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=environment(),
+        check=False,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    return done.stdout
 
 
 def default_sigint() -> None:

@@ -1,10 +1,14 @@
-"""The built-in format engines: own CSV, Touchstone, MATLAB, netCDF and column-mapped text."""
+"""The built-in format engines: own CSV, Touchstone, MATLAB, netCDF and column-mapped text.
+
+Each file format's reader and writer live in :mod:`sysid_core.formats`; an engine here only
+names them, with the format's extensions.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 import xarray as xr
@@ -20,6 +24,8 @@ from sysid_core.formats.touchstone import read_s2p, s2p_text
 
 __all__ = ["ColumnsFormat", "CsvFormat", "MatFormat", "NetcdfFormat", "TouchstoneFormat"]
 
+Writer = Callable[[Path, np.ndarray, np.ndarray, str, "np.ndarray | None"], None]
+
 
 def _no_options(engine: ResponseFormat, path: Path, options: Mapping[str, Any]) -> None:
     if options:
@@ -29,97 +35,78 @@ def _no_options(engine: ResponseFormat, path: Path, options: Mapping[str, Any]) 
         )
 
 
-class CsvFormat(ResponseFormat):
+def _write_csv(
+    path: Path, f: np.ndarray, resp: np.ndarray, units: str, times: np.ndarray | None
+) -> None:
+    path.write_text(csv_text(f, resp, units, times), encoding="utf-8")
+
+
+def _write_s2p(
+    path: Path, f: np.ndarray, resp: np.ndarray, units: str, times: np.ndarray | None
+) -> None:
+    path.write_text(s2p_text(f, resp, units), encoding="utf-8")  # no place for time stamps
+
+
+class _FileFormat(ResponseFormat):
+    """An engine of one reader and one writer function, taking no options."""
+
+    reader: ClassVar[Callable[[Path], xr.DataArray]]
+    writer: ClassVar[Writer]
+    writes = True
+
+    def open_sweep(self, path: Path, **options: Any) -> xr.DataArray:
+        _no_options(self, path, options)
+        return type(self).reader(path)
+
+    def write_sweep(
+        self,
+        path: Path,
+        frequency_hz: np.ndarray,
+        response: np.ndarray,
+        units: str,
+        time_s: np.ndarray | None,
+    ) -> None:
+        type(self).writer(path, frequency_hz, response, units, time_s)
+
+
+class CsvFormat(_FileFormat):
     """The toolkit's own CSV: a header of 9 (or 10, with time stamps) columns, a row a point."""
 
     name = "csv"
     extensions = (".csv",)
     description = "the toolkit's own CSV (frequency_hz, y1_u1_re, ..., optional time_s)"
-    writes = True
-
-    def open_sweep(self, path: Path, **options: Any) -> xr.DataArray:
-        _no_options(self, path, options)
-        return read_csv(path)
-
-    def write_sweep(
-        self,
-        path: Path,
-        frequency_hz: np.ndarray,
-        response: np.ndarray,
-        units: str,
-        time_s: np.ndarray | None,
-    ) -> None:
-        path.write_text(csv_text(frequency_hz, response, units, time_s), encoding="utf-8")
+    reader = staticmethod(read_csv)
+    writer = staticmethod(_write_csv)
 
 
-class TouchstoneFormat(ResponseFormat):
+class TouchstoneFormat(_FileFormat):
     """Touchstone ``.s2p`` with scikit-rf (``S_ij`` = output ``i`` over input ``j``)."""
 
     name = "touchstone"
     extensions = (".s2p",)
     description = "Touchstone .s2p (scikit-rf); no time stamps"
-    writes = True
-
-    def open_sweep(self, path: Path, **options: Any) -> xr.DataArray:
-        _no_options(self, path, options)
-        return read_s2p(path)
-
-    def write_sweep(
-        self,
-        path: Path,
-        frequency_hz: np.ndarray,
-        response: np.ndarray,
-        units: str,
-        time_s: np.ndarray | None,
-    ) -> None:
-        # Touchstone has no place for time stamps
-        path.write_text(s2p_text(frequency_hz, response, units), encoding="utf-8")
+    reader = staticmethod(read_s2p)
+    writer = staticmethod(_write_s2p)
 
 
-class MatFormat(ResponseFormat):
+class MatFormat(_FileFormat):
     """MATLAB ``.mat`` (v4 to v7.3): ``frequency_hz``, ``response`` (n, 2, 2) complex."""
 
     name = "mat"
     extensions = (".mat",)
     description = "MATLAB .mat, v4 to v7.3 (frequency_hz, response, optional time_s)"
-    writes = True
-
-    def open_sweep(self, path: Path, **options: Any) -> xr.DataArray:
-        _no_options(self, path, options)
-        return read_mat(path)
-
-    def write_sweep(
-        self,
-        path: Path,
-        frequency_hz: np.ndarray,
-        response: np.ndarray,
-        units: str,
-        time_s: np.ndarray | None,
-    ) -> None:
-        write_mat(path, frequency_hz, response, units, time_s)
+    reader = staticmethod(read_mat)
+    writer = staticmethod(write_mat)
 
 
-class NetcdfFormat(ResponseFormat):
+class NetcdfFormat(_FileFormat):
     """netCDF: a one-experiment data set, or a bare DataArray of one sweep."""
 
     name = "netcdf"
     extensions = (".nc",)
     description = "netCDF: a one-experiment data set or a bare (frequency, output, input) array"
-    writes = True
-
-    def open_sweep(self, path: Path, **options: Any) -> xr.DataArray:
-        _no_options(self, path, options)
-        return read_nc(path)
-
-    def write_sweep(
-        self,
-        path: Path,
-        frequency_hz: np.ndarray,
-        response: np.ndarray,
-        units: str,
-        time_s: np.ndarray | None,
-    ) -> None:
-        write_nc(path, frequency_hz, response, units, time_s)
+    reader = staticmethod(read_nc)
+    writer = staticmethod(write_nc)
 
 
 class ColumnsFormat(ResponseFormat):

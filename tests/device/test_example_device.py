@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from installing import environment
+from installing import environment, run_python
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "docs" / "examples" / "sysid-example-device"
 DISTRIBUTION = "sysid-example-device"
@@ -26,21 +26,8 @@ def example_installed(example_plugin: Path) -> None:
     """The example package, installed for this session only (see conftest.py)."""
 
 
-def _run(code: str) -> str:
-    done = subprocess.run(
-        [sys.executable, "-c", code],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        env=_environment(),
-        check=False,
-    )
-    assert done.returncode == 0, done.stdout + done.stderr
-    return done.stdout
-
-
 def test_registry_lists_example_gyro_with_its_distribution(example_installed: None) -> None:
-    out = _run(
+    out = run_python(
         "from sysid_core.plugin.registry import Registry\n"
         "registry = Registry()\n"
         "component = registry.get('device', 'example-gyro')\n"

@@ -10,12 +10,10 @@ twin, ``export_dataset(format="npz")`` writes one, and a broken archive is refus
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
-from installing import environment
+from installing import run_python
 from truths import cloverleaf_truth, simulate
 
 from sysid_core.data.schema import save_dataset
@@ -29,19 +27,6 @@ def installed(example_format: Path) -> None:
     """The example format package, installed for this session only (see conftest.py)."""
 
 
-def _run(code: str) -> str:
-    done = subprocess.run(
-        [sys.executable, "-c", code],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        env=environment(),
-        check=False,
-    )
-    assert done.returncode == 0, done.stdout + done.stderr
-    return done.stdout
-
-
 def test_the_built_in_engines_are_registered_as_plugins() -> None:
     assert set(format_names()) >= {"csv", "touchstone", "mat", "netcdf", "columns"}
     assert set(format_names(writes=True)) >= {"csv", "touchstone", "mat", "netcdf"}
@@ -49,7 +34,7 @@ def test_the_built_in_engines_are_registered_as_plugins() -> None:
 
 
 def test_the_registry_lists_the_format_with_its_distribution(installed: None) -> None:
-    out = _run(
+    out = run_python(
         "import json\n"
         "from sysid_core.plugin.registry import Registry\n"
         "from sysid_core.formats.engine import sweep_extensions\n"
@@ -62,7 +47,7 @@ def test_the_registry_lists_the_format_with_its_distribution(installed: None) ->
 
 
 def test_a_sweep_round_trips_through_the_format(installed: None, tmp_path: Path) -> None:
-    out = _run(
+    out = run_python(
         "import numpy as np\n"
         "from sysid_core.data.sweep import make_sweep\n"
         "from sysid_core.formats.sweepfiles import read_sweep, write_sweep\n"
@@ -80,7 +65,7 @@ def test_a_sweep_round_trips_through_the_format(installed: None, tmp_path: Path)
 
 def test_a_manifest_of_its_files_loads_as_its_csv_twin(installed: None, tmp_path: Path) -> None:
     save_dataset(simulate(cloverleaf_truth(), noise_rel=1e-3, seed=3), tmp_path / "data.nc")
-    out = _run(
+    out = run_python(
         "import numpy as np\n"
         "from sysid_core.data.schema import load_dataset\n"
         "from sysid_core.formats.manifest import export_dataset, load_manifest\n"
@@ -97,7 +82,7 @@ def test_a_manifest_of_its_files_loads_as_its_csv_twin(installed: None, tmp_path
 
 def test_a_broken_archive_is_one_line_naming_the_file(installed: None, tmp_path: Path) -> None:
     (tmp_path / "bad.npz").write_bytes(b"not a zip archive")
-    out = _run(
+    out = run_python(
         "from sysid_core.errors import FileFormatError\n"
         "from sysid_core.formats.sweepfiles import read_sweep\n"
         "try:\n"
