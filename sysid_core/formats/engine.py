@@ -130,5 +130,6 @@ def engine_for(
     known = ", ".join(_extensions(every))
     raise FileFormatError(
         f"{path}: unknown response-file extension {path.suffix or '(none)'!r}; supported: "
-        f"{known or 'none (no format is registered: is sysid-toolkit installed?)'}"
+        f"{known or 'none (no format is registered: is sysid-toolkit installed?)'}; or name "
+        "the file's format (a manifest's format = \"csv\"; sysid plugins lists the formats)"
     )
