@@ -164,6 +164,21 @@ def _merge(points: np.ndarray, tol: float) -> np.ndarray:
     return np.array(keep)
 
 
+def anchor_reach(bw: np.ndarray, plan: SweepPlan) -> float:
+    """How far beyond two modes a grid's far points reach: ``max(refine_span_hz/2, 10 bw)``."""
+    return max(plan.refine_span_hz / 2, 10 * float(np.max(bw)))
+
+
+def following(plan: SweepPlan, guess: ModeGuess) -> SweepPlan:
+    """``plan`` with its band widened to hold the grid around ``guess``'s modes.
+
+    The modes are measured where they are (:meth:`~sysid_core.measure.sweeps.SweepPlan.following`):
+    their cores and far points, :func:`anchor_reach` beyond the outer modes.
+    """
+    reach = anchor_reach(guess.bandwidth_hz, plan) + float(np.max(guess.core_half_widths()))
+    return plan.following(guess.frequencies_hz, reach)
+
+
 def anchors(f: np.ndarray, bw: np.ndarray, plan: SweepPlan) -> np.ndarray:
     """:data:`ANCHORS` far points around two modes, inside the band.
 
@@ -171,7 +186,7 @@ def anchors(f: np.ndarray, bw: np.ndarray, plan: SweepPlan) -> np.ndarray:
     max(refine_span_hz/2, 10 bw)``, moved inside the band where they would leave it; plus two
     between the modes when they are far apart.
     """
-    reach = max(plan.refine_span_hz / 2, 10 * float(np.max(bw)))
+    reach = anchor_reach(bw, plan)
     side = ANCHORS // 2
     out = np.arange(1, side + 1) / side * reach
     points = [f[0] - out, f[1] + out]
@@ -208,7 +223,9 @@ def mode_grid(
 
     Around each mode ``±h`` with ``h = CORE_BANDWIDTHS·bw + 2σ``, at a step of
     ``bw / POINTS_PER_BANDWIDTH`` or ``h / MAX_HALF_POINTS``, whichever is coarser; then the
-    :data:`ANCHORS` far points of :func:`anchors`. Everything inside the plan's band; never
+    :data:`ANCHORS` far points of :func:`anchors`. Everything inside the plan's band, widened
+    to hold the modes and their far points where they lie outside it
+    (:meth:`~sysid_core.measure.sweeps.SweepPlan.following`); never
     fewer than :data:`~sysid_core.measure.sweeps.MIN_POINTS` points (the step is halved and the
     points per mode doubled until there are: modes at the band's edge, far points merged).
 
@@ -226,6 +243,7 @@ def mode_grid(
     :data:`MAX_FINE_HALF_POINTS` points on either side of a mode: the window is there to
     resolve them.
     """
+    plan = following(plan, guess)
     points_per_bw, max_half = POINTS_PER_BANDWIDTH, MAX_HALF_POINTS
     points = np.linspace(*plan.band_hz, MIN_POINTS)
     for _ in range(6):
@@ -280,7 +298,8 @@ def tone_budget(n_points: int, tones: int, extra: int = 0) -> int:
 def scout_grid(guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
     """Windows that locate modes which may have moved since ``guess`` by an unknown amount.
 
-    Around each mode ``± m`` at the band's resolution, inside the band (the band itself when
+    Around each mode ``± m`` at the band's resolution, inside the band (widened to hold the
+    windows, :meth:`~sysid_core.measure.sweeps.SweepPlan.following`; the band itself when
     the windows would cover most of it): ``m = σ + SCOUT_BANDWIDTHS × bw`` when the guess
     carries an uncertainty ``σ`` (the move expected from the electrodes stepped before),
     else ``max(SCOUT_SPLITS × split, SCOUT_BANDWIDTHS × bw)``.
@@ -289,6 +308,7 @@ def scout_grid(guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
     sigma = float(guess.uncertainty_hz.max())
     wide = SCOUT_BANDWIDTHS * float(bw.max())
     m = sigma + wide if sigma > 0 else max(SCOUT_SPLITS * guess.split_hz, wide)
+    plan = plan.following(f, m)
     blo, bhi = plan.band_hz
     windows = [(max(blo, float(fi) - m), min(bhi, float(fi) + m)) for fi in f]
     if windows[1][0] <= windows[0][1]:  # overlapping: one window

@@ -9,6 +9,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -174,6 +175,28 @@ class SweepPlan:
         """The band sweep."""
         return grid(*self.band_hz, self.resolution_hz)
 
+    def following(
+        self, frequencies_hz: Sequence[float] | np.ndarray, margin_hz: float
+    ) -> SweepPlan:
+        """The plan with its band widened to hold ``frequencies_hz ± margin_hz``.
+
+        The band says where to look for modes nobody has located yet (the device's
+        ``band_hz``, or ``[experiment] band_hz``). Modes that a model predicts, or a sweep
+        located, outside it are measured where they are: a lab declares the band around the
+        modes it saw, and a tuning moves them (a target frequency, or the softening of every
+        electrode at the answer's bias). The band follows them; it never shrinks.
+        """
+        f = np.asarray(frequencies_hz, dtype=float).ravel()
+        f = f[np.isfinite(f) & (f > 0)]
+        if f.size == 0:
+            return self
+        lo, hi = self.band_hz
+        wide = (
+            min(lo, max(float(f.min()) - margin_hz, 0.5 * float(f.min()))),
+            max(hi, float(f.max()) + margin_hz),
+        )
+        return self if wide == (lo, hi) else dataclasses.replace(self, band_hz=wide)
+
     def refine(self, center_hz: float | None, split_hz: float = 0.0) -> np.ndarray:
         """The identification sweep: the band, or a window around ``center_hz``.
 
@@ -183,8 +206,8 @@ class SweepPlan:
         """
         if center_hz is None or self.refine_span_hz <= 0:
             return self.band()
-        blo, bhi = self.band_hz
         half = max(self.refine_span_hz / 2, 1.5 * split_hz)
+        blo, bhi = self.following([center_hz], half).band_hz
         lo, hi = max(blo, center_hz - half), min(bhi, center_hz + half)
         if hi - lo < self.refine_span_hz / 2:  # the modes sit at the band's edge
             return self.band()

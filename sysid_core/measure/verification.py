@@ -155,6 +155,10 @@ def verify(
         ``seen`` the bandwidths that sweep's fit measured (or None).
     """
     rep = predicted_modes
+    # the modes are measured where the model puts them, inside the band or not
+    plan = plan.following(
+        predicted.frequencies_hz, max(plan.verify_span_hz, plan.refine_span_hz / 2)
+    )
     bw = rep.bandwidth_hz if rep is not None else np.full(2, np.nan)
     bw_min = float(np.min(bw)) if np.all(np.isfinite(bw) & (bw > 0)) else np.inf
     bw_max = float(np.max(bw)) if np.isfinite(bw_min) else 0.0

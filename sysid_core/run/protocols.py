@@ -34,6 +34,7 @@ from sysid_core.measure.lean import (
     LOCAL_RADIUS,
     ModeGuess,
     explained_gap,
+    following,
     locate_plan,
     mode_grid,
     scout_grid,
@@ -349,9 +350,10 @@ class LeanProtocol(Protocol):
         With ``[experiment] probe``, the run's first look at the band is a probe of a third of
         its points, which also says whether the bench is quiet (:mod:`sysid_core.measure.locating`).
         """
-        ctx = self.ctx
+        ctx, points = self.ctx, self.ctx.config.experiment.locate_points
         guess, scout = self.known.guess(bias, ctx.fitter.structure, ctx.fitter.model)
-        locate = self.locate_plan.band()
+        plan = ctx.plan if guess is None else following(ctx.plan, guess)  # bands follow modes
+        locate = (self.locate_plan if plan is ctx.plan else locate_plan(plan, points)).band()
         if first is None and guess is None:
             first = locate
         elif first is None and scout:
@@ -361,23 +363,22 @@ class LeanProtocol(Protocol):
         elif first is None:
             assert guess is not None
             first = mode_grid(guess, ctx.plan)
-        points = ctx.config.experiment.locate_points
-        denser = locate_plan(ctx.plan, 4 * (points - 1) + 1).band()
-        probe, probing = None, locate_plan(ctx.plan, probe_points(points))
+        denser = locate_plan(plan, 4 * (points - 1) + 1).band()
+        probe, probing = None, locate_plan(plan, probe_points(points))
         # the run's first look at the band, on a bench that may be quiet
         setting, caps = ctx.config.experiment.probe, ctx.bench.device.capabilities
         looked = first is locate and not len(self.known) and probe_first(setting, caps)
         if looked:
             probe = probing.band()
             probe = probe if probe.size < locate.size else None
-        tries = [("-locate", locate), ("-locate4", denser), ("-band", ctx.plan.band())]
+        tries = [("-locate", locate), ("-locate4", denser), ("-band", plan.band())]
         if probe is None:
             tries.insert(0, ("", first))
 
         def sweep(freqs: np.ndarray, at: Path, band: bool) -> Found:
             return self.sweep(bias, freqs, at, band)
 
-        quiet = locate_modes(sweep, ctx.say, path, tries, ctx.plan, denser.size, probe, looked)
+        quiet = locate_modes(sweep, ctx.say, path, tries, plan, denser.size, probe, looked)
         if looked:  # it decides the first design
             self.quiet = quiet
         if probe is not None and quiet:  # scouts too can locate modes with the probe's step

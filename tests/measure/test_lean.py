@@ -87,16 +87,17 @@ def test_mode_grid_is_dense_at_the_modes_and_sparse_elsewhere() -> None:
 def test_scout_and_band_edges() -> None:
     near = scout_grid(ModeGuess.of([4424.0, 4429.0], [0.1, 0.1]), PLAN)
     assert near[0] == pytest.approx(4424.0 - 2.5) and near[-1] <= 4429.0 + 2.5 + 1e-9
-    # a split so wide that the windows would cover most of the band: the band itself
+    # a split so wide that the windows would cover most of the band: the band itself, widened
+    # to hold the windows (the band follows the modes, SweepPlan.following)
     far = scout_grid(ModeGuess.of([4395.0, 4435.0], [0.1, 0.1]), PLAN)
-    np.testing.assert_array_equal(far, PLAN.band())
-    # modes at the band's edge: every point stays inside
+    np.testing.assert_allclose(np.diff(far), PLAN.resolution_hz)
+    assert far[0] <= PLAN.band_hz[0] and far[-1] >= PLAN.band_hz[1]
+    # modes at the band's edge: the grid holds both sides of them, outside the band too
     edge = mode_grid(ModeGuess.of([4385.5, 4390.0], [0.1, 0.1]), PLAN)
-    assert edge[0] >= 4385.0
-    # a degenerate pair at the edge, whose far points merge there: still a grid at the modes
-    # (finer, to keep MIN_POINTS), not the whole band in MIN_POINTS points
+    assert edge[0] < 4385.0 and edge[0] >= 4385.5 - lean.anchor_reach(np.array([0.1]), PLAN) - 1
+    # a degenerate pair at the edge: its grid and far points on both sides, beyond the band
     corner = mode_grid(ModeGuess.of([4444.8, 4444.8], [0.1, 0.1]), PLAN)
-    assert corner.size >= MIN_POINTS and corner[-1] <= 4445.0
+    assert corner.size >= MIN_POINTS and corner[-1] > 4445.0
     assert np.sum(np.abs(corner - 4444.8) <= 0.2) >= 2 * lean.MAX_HALF_POINTS + 1
 
 
