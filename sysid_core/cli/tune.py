@@ -44,7 +44,6 @@ def tune_cmd(
     from sysid_core.errors import NotConvergedError
     from sysid_core.run.config import load_config
     from sysid_core.run.pipeline import TuningRun
-    from sysid_core.run.summary import DAC_LIMITS
 
     cfg = load_config(config)
     prior = None if from_model is None else load_model(from_model)
@@ -103,14 +102,29 @@ def tune_cmd(
             f"results and plots in {target}/ (summary.json, bias_path.{plot_format}, iterNN/)"
         )
     if not summary.converged:
-        more = (
-            "a finer DAC, another tuned electrode or a wider [tuning] acceptance_hz"
-            if DAC_LIMITS in summary.status
-            else "a larger [tuning] max_bench_minutes, in a new --out"
-            if summary.stopped is not None
-            else "run again with a larger [tuning] max_iterations in a new --out"
-        )
+        more = advice(summary.status, summary.stopped, summary.frequency_hz is not None)
         raise NotConvergedError(
             f"{summary.status}; results in {target}/ ({more}, or inspect {target}/summary.json)",
             summary,
         )
+
+
+def advice(status: str, stopped: str | None, seen: bool) -> str:
+    """What may help a run that did not converge, for its one error line.
+
+    ``status``: the run's status line; ``stopped``: why the budget stopped it (None: it was
+    not); ``seen``: whether its last verification showed both modes.
+    """
+    from sysid_core.run.summary import DAC_LIMITS
+
+    if DAC_LIMITS in status:
+        return "a finer DAC, another tuned electrode or a wider [tuning] acceptance_hz"
+    if not seen:
+        return (
+            "the last sweeps did not show the modes: their plots (iterNN/verify*.png) show "
+            "where they are; sharp modes need a finer [experiment] resolution_hz or more "
+            "locate_points"
+        )
+    if stopped is not None:
+        return "a larger [tuning] max_bench_minutes, in a new --out"
+    return "run again with a larger [tuning] max_iterations in a new --out"
