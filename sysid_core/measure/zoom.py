@@ -12,9 +12,8 @@ So a whole-band sweep that fails is followed first by :func:`zoom_grid`: around 
 fitted, ``± (half its step + 2 bandwidths)`` at most
 :data:`~sysid_core.measure.lean.MAX_FINE_HALF_POINTS` points on either side
 (:func:`~sysid_core.measure.lean.mode_grid` with ``fine``), where every mode has points within a
-few bandwidths. Gyro 112 (frozen bench, 60 dB): its first iteration measured 54 points there
-instead of 200 + 200, and the run converged in 496 points at a true split of 0.01 mHz instead of
-ending at 715 mHz after 2406 points (tests/measure/test_zoom.py).
+few bandwidths. On the slow gyro above (the case of tests/measure/test_zoom.py) the first
+iteration then measures 54 points there instead of 200 + 200.
 """
 
 from __future__ import annotations
