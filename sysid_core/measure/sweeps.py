@@ -184,7 +184,9 @@ class SweepPlan:
         ``band_hz``, or ``[experiment] band_hz``). Modes that a model predicts, or a sweep
         located, outside it are measured where they are: a lab declares the band around the
         modes it saw, and a tuning moves them (a target frequency, or the softening of every
-        electrode at the answer's bias). The band follows them; it never shrinks.
+        electrode at the answer's bias). The band follows them; it never shrinks. Its sweep keeps
+        its number of points (the step grows with the band): a model that puts the modes far
+        away costs a window there and a coarser band, never a band sweep of more points.
         """
         f = np.asarray(frequencies_hz, dtype=float).ravel()
         f = f[np.isfinite(f) & (f > 0)]
@@ -195,7 +197,10 @@ class SweepPlan:
             min(lo, max(float(f.min()) - margin_hz, 0.5 * float(f.min()))),
             max(hi, float(f.max()) + margin_hz),
         )
-        return self if wide == (lo, hi) else dataclasses.replace(self, band_hz=wide)
+        if wide == (lo, hi):
+            return self
+        step = self.resolution_hz * (wide[1] - wide[0]) / (hi - lo)
+        return dataclasses.replace(self, band_hz=wide, resolution_hz=step)
 
     def refine(self, center_hz: float | None, split_hz: float = 0.0) -> np.ndarray:
         """The identification sweep: the band, or a window around ``center_hz``.

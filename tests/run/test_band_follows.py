@@ -34,6 +34,8 @@ def test_the_band_grows_to_hold_the_modes_and_never_shrinks(f: list[float], marg
     assert lo <= min(PLAN.band_hz[0], min(f) - margin) + 1e-9
     assert hi >= max(PLAN.band_hz[1], max(f) + margin) - 1e-9
     assert lo > 0
+    # the band sweep keeps its number of points, however far the modes are
+    assert PLAN.following(f, margin).band().size <= PLAN.band().size + 1
 
 
 def test_modes_inside_the_band_leave_the_plan_as_it_is() -> None:
