@@ -160,6 +160,7 @@ def answer(
             acceptance_hz,
             bias_step if local_step is None else local_step,
             near_acceptances,
+            None if step.result.confidence is None else step.result.confidence.split_ci_hz[1],
         )
     )
     if untrusted is not None:
