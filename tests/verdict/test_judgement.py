@@ -261,20 +261,24 @@ def test_answer_goes_back_to_the_least_measured_split() -> None:
 
 
 @pytest.mark.parametrize(
-    ("offset", "measured", "far", "stepped"),
+    ("offset", "measured", "far", "upper", "stepped"),
     [
-        ((0.01, -0.01), 0.005, 3.0, True),  # near, an answer 3 V away: the linear step instead
-        ((0.01, -0.01), 0.005, 0.0, False),  # near, the answer the local correction: applied
-        ((0.01, -0.01), 0.05, 3.0, False),  # 50 mHz is not near (ten acceptances): applied
-        ((0.2, -0.2), 0.005, 0.15, False),  # a jump within the local design's step: applied
+        ((0.01, -0.01), 0.005, 3.0, None, True),  # near, an answer 3 V away: the linear step
+        ((0.01, -0.01), 0.005, 0.0, None, False),  # near, the answer the local correction
+        ((0.01, -0.01), 0.05, 3.0, None, False),  # 50 mHz is not near (ten acceptances)
+        ((0.01, -0.01), 0.05, 3.0, 0.02, False),  # not near, its region promises under 50 mHz
+        ((0.01, -0.01), 0.05, 3.0, 2.0, True),  # not near, its region does not: the linear step
+        ((0.2, -0.2), 0.005, 0.15, None, False),  # a jump within the local design's step
     ],
 )
 def test_an_answer_beyond_the_linearised_step_from_a_near_bias_is_not_taken(
-    offset: tuple[float, float], measured: float, far: float, stepped: bool
+    offset: tuple[float, float], measured: float, far: float, upper: float | None, stepped: bool
 ) -> None:
-    """The fitted cloverleaf model, a verification near its degenerate bias: an answer far
-    beyond the step the model's law asks there (another root, or the law carried where no
-    sweep measured it) is replaced by that step, which lands near the degenerate bias."""
+    """The fitted cloverleaf model, a verification near its degenerate bias, or one its
+    answer's 95 % region does not promise to beat (``upper``, the region's largest split): an
+    answer far beyond the step the model's law asks there (another root, another point of a
+    degenerate set, or the law carried where no sweep measured it) is replaced by that step,
+    which lands near the degenerate bias."""
     from sysid_core.verdict.trust import untrusted_step
 
     model = fit(simulate(cloverleaf_truth(), PAPER_BIASES, PAPER_FREQS))
@@ -287,7 +291,8 @@ def test_an_answer_beyond_the_linearised_step_from_a_near_bias_is_not_taken(
     root = solve_criterion(criterion, model, space)[0].bias
     b0 = root + np.array([*offset, 0.0])
     answer_bias = root + np.array([far, 0.0, 0.0])
-    found = untrusted_step(model, answer_bias, (measured, b0), space.index, ACCEPTANCE, 0.25, 10.0)
+    latest = (measured, b0)
+    found = untrusted_step(model, answer_bias, latest, space.index, ACCEPTANCE, 0.25, 10.0, upper)
     assert (found is not None) is stepped
     if found is not None:
         # the Gauss-Newton step from 14 mV away lands within a millivolt of the root
