@@ -11,10 +11,12 @@ from __future__ import annotations
 import os
 import sys
 import warnings
+from pathlib import Path
 from typing import Any
 
 from sysid_core.cli import data, fit, fleet, study, tune  # noqa: F401 - register commands
 from sysid_core.cli.app import add_plugin_commands, app, failure
+from sysid_core.errors import SysidWarning
 
 #: The order of ``sysid --help``: the main job first.
 COMMAND_ORDER = (
@@ -38,7 +40,18 @@ __all__ = ["app", "main"]
 def _format_warning(
     message: Any, category: Any, filename: str, lineno: int, line: Any = None
 ) -> str:
-    return f"sysid: warning: {message}\n"
+    """A warning as one line.
+
+    One that is not the toolkit's own (numpy's ``invalid value encountered in sqrt``) also
+    says its class and where it arose, so that it can be reported.
+    """
+    if isinstance(category, type) and issubclass(category, SysidWarning):
+        return f"sysid: warning: {message}\n"
+    where = Path(filename)
+    parts = where.parts
+    short = "/".join(parts[parts.index("sysid_core") :]) if "sysid_core" in parts else where.name
+    kind = getattr(category, "__name__", str(category))
+    return f"sysid: warning: {message} ({kind} at {short}:{lineno})\n"
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -143,3 +143,18 @@ def test_constant_data_warns(tmp_path: Path) -> None:
 def test_absurd_magnitudes_are_named(tmp_path: Path) -> None:
     with pytest.raises(DataError, match="outside the range"):
         fit(load_dataset(_scaled_example(tmp_path, factor=1e200)), "act")
+
+
+def test_a_warning_that_is_not_the_toolkits_says_where_it_arose() -> None:
+    from sysid_core.cli import _format_warning
+    from sysid_core.errors import FitWarning
+
+    own = _format_warning("no resonance", FitWarning, "/x/sysid_core/identification/fitting.py", 3)
+    assert own == "sysid: warning: no resonance\n"
+    other = _format_warning(
+        "invalid value encountered in sqrt", RuntimeWarning, "/v/sysid_core/model/modal.py", 88
+    )
+    assert other == (
+        "sysid: warning: invalid value encountered in sqrt "
+        "(RuntimeWarning at sysid_core/model/modal.py:88)\n"
+    )
