@@ -54,6 +54,7 @@ __all__ = [
     "INPUT_KEYS",
     "LAYOUTS",
     "PARTS",
+    "TEXT_FORMATS",
     "TIME_UNITS",
     "ChannelColumns",
     "ColumnMap",
@@ -281,8 +282,9 @@ def _problem(error: Any, tables: Mapping[str, str]) -> str:
     return f"{key}{shown}: {message}"
 
 
-#: The engines that read text: the CSV's own header, or a column map.
-_TEXT_FORMATS = ("csv", "columns")
+#: The engines that read text: the CSV's own header, or a column map. A file that any other
+#: engine claims (``.s2p``, ``.mat``, ``.nc``, a plugin's format) is never read with a map.
+TEXT_FORMATS = ("csv", "columns")
 
 
 def experiment_column_map(
@@ -328,7 +330,7 @@ def experiment_column_map(
 def _is_text(file: Path) -> bool:
     """Whether ``file`` is text a column map may read: no engine but the CSV's claims it."""
     try:
-        return engine_for(file).name in _TEXT_FORMATS
+        return engine_for(file).name in TEXT_FORMATS
     except FileFormatError:
         return True  # an instrument's export (.txt, .dat, ...): only a column map reads it
 

@@ -45,7 +45,12 @@ import xarray as xr
 from sysid_core.data.schema import load_dataset, make_dataset
 from sysid_core.data.validation import validate
 from sysid_core.errors import DataError, FileFormatError, ManifestError
-from sysid_core.formats.columnmap import LAYOUTS, ColumnMap, experiment_column_map
+from sysid_core.formats.columnmap import (
+    LAYOUTS,
+    TEXT_FORMATS,
+    ColumnMap,
+    experiment_column_map,
+)
 from sysid_core.formats.engine import format_names
 from sysid_core.formats.export import EXPORT_FORMATS, MANIFEST_NAME, export_dataset, export_files
 from sysid_core.formats.sweepfiles import read_sweep
@@ -65,7 +70,6 @@ __all__ = [
 
 _TOP_KEYS = ("device", "structure_potential_v", "electrodes", "format", "columns", "experiment")
 _EXPERIMENT_KEYS = ("bias_v", "file", "files", "format", "columns")
-_TEXT_FORMATS = ("csv", "columns")
 
 
 @dataclass(frozen=True)
@@ -210,13 +214,13 @@ def _experiment(
     path: Path,
     electrodes: list[str],
     top: dict[str, Any],
-    top_format: str | None = None,
-    names: list[str] | None = None,
+    top_format: str | None,
+    names: list[str],
 ) -> ManifestExperiment:
     """Experiment ``k`` of the manifest at ``path``, checked; its response files must exist.
 
     ``top`` is the manifest's ``[columns]`` table (empty without one), ``top_format`` its
-    ``format`` (an experiment's own overrides it).
+    ``format`` (an experiment's own overrides it), ``names`` the registered formats.
     """
     where = f"{path}, experiment {k}"
     _unknown(table, _EXPERIMENT_KEYS, where)
@@ -231,8 +235,8 @@ def _experiment(
         )
     values = tuple(_number(b, f"{where}: bias_v[{p}]") for p, b in enumerate(bias))
     files = _files(table, where, path)
-    fmt = _format(table.get("format", top_format), where, names or format_names())
-    if fmt is not None and fmt not in _TEXT_FORMATS:
+    fmt = _format(table.get("format", top_format), where, names)
+    if fmt is not None and fmt not in TEXT_FORMATS:
         if len(files) > 1 or "columns" in table:
             raise ManifestError(
                 f"{where}: format = {fmt!r} reads one file of its own format; a column map "
