@@ -21,7 +21,7 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.clock.bench import Bench
-from sysid_core.clock.benchtime import dwell, settle
+from sysid_core.clock.benchtime import acquisitions, dwell, points_per_frequency, settle
 from sysid_core.clock.budget import Budget, minutes, spent_s
 from sysid_core.device.capabilities import Capabilities
 from sysid_core.errors import BudgetSpentError
@@ -99,6 +99,19 @@ class RunClock:
     def settle_s(self, model: FittedModel | None = None) -> float:
         """The settling after a bias change (seconds; 0 when nothing says)."""
         return float(self.rates(model)[1][0] or 0.0)
+
+    def sweep_s(self, n_points: int, bias_change: bool = True) -> float:
+        """What a sweep of ``n_points`` would take (seconds), settling after a bias change included.
+
+        In acquisitions (a dwell of 1) while nothing states or estimates the dwell: a cost to
+        compare with another's, not a time.
+        """
+        (dwell_s, _), (settle_s, _) = self.rates()
+        per = points_per_frequency(self.caps)
+        n = acquisitions(int(n_points), self.bench.tones) * per
+        if dwell_s is None:
+            return float(n)
+        return n * dwell_s + ((settle_s or 0.0) if bias_change else 0.0)
 
     def spent_s(self, rates: tuple[Seconds, Seconds] | None = None) -> float | None:
         """The bench time spent so far (seconds; the clock's, else estimated), or None.

@@ -1,47 +1,125 @@
-"""How fast the verified split falls, and whether it reaches the acceptance in time at that rate.
+"""How fast the verified split falls, and whether a local design pays for itself at that rate.
 
-A model that describes the gyro brings the split down by orders of magnitude per iteration
-(the cloverleaf: 2-170 mHz after the first answer, under 1 mHz after the second). A model whose
-bias law holds only roughly (a law off by a third, a law fitted far from the answer) brings it
-down by a constant factor, 3-10 per iteration, while each new verification, fitted with the
-rest, still agrees with it: a gyro with input dynamics in a good lab went 2643, 249, 43 and
-19 mHz in four iterations, where the local design measured after the third reached 0.7 mHz.
-:func:`too_slow` says when the rate seen in the last two verifications would leave the split
-over the acceptance after the iterations left; the run then measures the local design
-(:class:`~sysid_core.run.protocols.LeanProtocol`, and a run from a previous model,
-:class:`~sysid_core.measure.previous.PreviousModel`).
+Each answer of a model that is right up to its stiffness law's error leaves a split about a
+fixed fraction ``r`` of the one it stepped from: a Newton step with a Jacobian off by ``r``
+(``r`` the law's relative error where the run steps; a model that describes the gyro has
+``r`` of 1 % or less, a law off by a third about 0.3). At the rate ``r`` seen in the last two
+verified splits (the first: the split where the run started, then the first verified one),
+verifying the next answers alone reaches the acceptance ``A`` from a split ``s`` after
+
+``n = ceil(log(A / s) / log r)`` verifications,
+
+each costing what the latest one cost on the bench clock. Measuring the local design first (the
+experiments of eq. (18) around the bias that are not measured yet) costs its sweeps and at least
+one verification after them. :func:`too_slow` says when the design is the cheaper way to the
+acceptance (``n`` verifications cost more than the design and one verification), when the rate
+would not reach it in the iterations the budget leaves, or when the split did not fall at all;
+the run then measures the local design (:class:`~sysid_core.run.protocols.LeanProtocol`, and a
+run from a previous model, :class:`~sysid_core.measure.previous.PreviousModel`). Otherwise it
+fits every sweep again and verifies the next answer: a model whose answers contract fast
+(``r`` of a few percent) is not paid a design it does not need.
 """
 
 from __future__ import annotations
 
-__all__ = ["too_slow"]
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+__all__ = ["Costs", "too_slow", "verifications_needed"]
 
 
-def too_slow(last_hz: float | None, split_hz: float, left: int, acceptance_hz: float) -> str | None:
-    """Why the split falls too slowly to reach the acceptance, or None.
+@dataclass(frozen=True)
+class Costs:
+    """What the two ways forward cost on the bench clock (seconds, or acquisitions).
+
+    Attributes
+    ----------
+    verify : float
+        One verification (the latest one's sweeps).
+    design : float
+        The local design's sweeps not measured yet.
+    """
+
+    verify: float
+    design: float
+
+    @classmethod
+    def of(
+        cls, cost_s: Callable[[int, bool], float] | None, verify: Sequence[int], design: int
+    ) -> Costs | None:
+        """The costs of a verification and of a design of ``design`` sweeps like its first.
+
+        ``cost_s(points, bias_change)``: what one sweep costs
+        (:meth:`~sysid_core.clock.runclock.RunClock.sweep_s`); ``verify``: the points of each
+        sweep of the latest verification (the first after a bias change). None without either.
+        """
+        if cost_s is None or not verify:
+            return None
+        once = sum(cost_s(n, k == 0) for k, n in enumerate(verify))
+        return cls(once, design * cost_s(verify[0], True))
+
+
+def verifications_needed(last_hz: float, split_hz: float, acceptance_hz: float) -> float:
+    """Verifications that take ``split_hz`` under ``acceptance_hz`` at the rate ``split / last``.
+
+    0 when it is already under; ``inf`` when the split did not fall.
+    """
+    if split_hz <= acceptance_hz:
+        return 0.0
+    rate = split_hz / last_hz
+    if rate >= 1.0:
+        return math.inf
+    return float(math.ceil(math.log(acceptance_hz / split_hz) / math.log(rate) - 1e-9))
+
+
+def too_slow(
+    last_hz: float | None,
+    split_hz: float,
+    left: int,
+    acceptance_hz: float,
+    costs: Costs | None = None,
+) -> str | None:
+    """Why verifying the next answers alone is the slower way to the acceptance, or None.
 
     Parameters
     ----------
     last_hz : float or None
-        The verified split before the latest one (None: there is none).
+        The split before the latest one (the run's start, or the previous verification); None:
+        there is none.
     split_hz : float
         The latest verified split.
     left : int
         The iterations still to come (none: nothing to decide, None is returned).
     acceptance_hz : float
         The split the run must reach.
+    costs : Costs, optional
+        A verification's and the local design's bench time; without them, only the rate and
+        the iterations left decide.
 
     Returns
     -------
     str or None
-        One line for the progress, when ``split · (split / last)^left`` exceeds the acceptance.
+        One line for the progress: the split did not fall, the rate would not reach the
+        acceptance in the iterations left, or the design and one verification cost less than
+        the verifications the rate needs (module docstring).
     """
     if last_hz is None or left < 1 or last_hz <= 0 or split_hz <= acceptance_hz:
         return None
-    at_end = split_hz * (split_hz / last_hz) ** left
-    if at_end <= acceptance_hz:
-        return None
-    return (
-        f"the verified split fell from {last_hz * 1e3:.3g} to {split_hz * 1e3:.3g} mHz; at that "
-        f"rate it would be {at_end * 1e3:.3g} mHz after the {left} iteration(s) left"
-    )
+    fell = f"the verified split fell from {last_hz * 1e3:.3g} to {split_hz * 1e3:.3g} mHz"
+    needed = verifications_needed(last_hz, split_hz, acceptance_hz)
+    if math.isinf(needed):
+        return f"the verified split did not fall ({last_hz * 1e3:.3g} to {split_hz * 1e3:.3g} mHz)"
+    if needed > left:
+        at_end = split_hz * (split_hz / last_hz) ** left
+        return (
+            f"{fell}; at that rate it would be {at_end * 1e3:.3g} mHz after the {left} "
+            "iteration(s) left"
+        )
+    if costs is not None and needed * costs.verify > costs.design + costs.verify:
+        ratio = needed * costs.verify / (costs.design + costs.verify)
+        return (
+            f"{fell}; at that rate the {needed:.0f} verifications it needs would cost "
+            f"{ratio:.2g} times the local design and one verification"
+        )
+    return None

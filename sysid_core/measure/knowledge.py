@@ -137,6 +137,13 @@ class Knowledge:
             return False
         return True
 
+    def split_at(self, bias: np.ndarray) -> float | None:
+        """The split of the first sweep at ``bias`` that located both modes (Hz), or None."""
+        for m in self.items:
+            if m.modes is not None and np.allclose(m.bias, bias, rtol=0, atol=SAME_V):
+                return m.modes.split_hz
+        return None
+
     def latest(self) -> Measured | None:
         """The latest sweep with located modes, or None."""
         located = [m for m in self.items if m.modes is not None]

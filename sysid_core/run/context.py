@@ -35,6 +35,9 @@ class RunContext:
     #: How many iterations the run can still start (the bench-time budget's,
     #: :meth:`sysid_core.clock.budget.Budget.iterations_left`); None: the cap's alone.
     afford: Callable[[], int] | None = None
+    #: What a sweep of so many points costs on the bench clock, after a bias change or not
+    #: (:meth:`sysid_core.clock.runclock.RunClock.sweep_s`); None: nothing compares costs.
+    cost_s: Callable[[int, bool], float] | None = None
 
     def left(self) -> int:
         """Iterations the run can still start, this one included if it has not measured yet.

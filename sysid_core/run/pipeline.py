@@ -176,6 +176,7 @@ class TuningRun:
             self.fitter,
             self.say,
             afford=self.clock.left,
+            cost_s=self.clock.sweep_s,
         )
         context.design(self.space.start_bias)  # the first design: limits and rank condition
         if from_model is not None:
@@ -270,7 +271,7 @@ class TuningRun:
                 self.say(f"iteration {it}: {stop}")
             if converged or stop is not None:
                 break
-            self.protocol.learned(step.moved, bias, ver, step.result.confidence)
+            self.protocol.learned(step.moved, bias, ver)
             # the next identification: around the modes if they were found, else the band
             found = ver.frequencies_hz is not None
             center, split = (ver.frequency_hz, float(ver.split_hz or 0.0)) if found else (None, 0.0)

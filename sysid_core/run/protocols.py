@@ -24,12 +24,11 @@ import xarray as xr
 
 from sysid_core.clock.benchtime import settle as settle_s
 from sysid_core.data.schema import concat_experiments, point_times
-from sysid_core.errors import ConfigError
-from sysid_core.measure.contraction import too_slow
+from sysid_core.errors import ConfigError, SysidError
+from sysid_core.measure.contraction import Costs, too_slow
 from sysid_core.measure.evidence import WindowAssessment
 from sysid_core.measure.knowledge import Knowledge
 from sysid_core.measure.lean import (
-    EXPLAIN_FLOOR_HZ,
     FINE_STEP,
     LOCAL_RADIUS,
     ModeGuess,
@@ -48,7 +47,7 @@ from sysid_core.measure.sweeps import SweepPlan
 from sysid_core.measure.verification import COARSE_ENOUGH, Verification, Window, modes_at, verify
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.context import RunContext
-from sysid_core.tuning.criteria import ConfidenceRegion, TuningResult
+from sysid_core.tuning.criteria import TuningResult
 
 __all__ = ["FullProtocol", "LeanProtocol", "Prefit", "Protocol", "RunContext", "make_protocol"]
 
@@ -83,13 +82,10 @@ class Protocol(ABC):
         """Every sweep so far, if iteration ``it`` fitted fewer (None: it fitted them all)."""
         return None
 
-    def learned(
-        self, moved: bool, bias: np.ndarray, ver: Verification, region: ConfidenceRegion | None
-    ) -> None:
+    def learned(self, moved: bool, bias: np.ndarray, ver: Verification) -> None:
         """Keep what the iteration ended with (the lean protocol does; the full one, nothing).
 
-        A move to the best reachable bias, the bias verified, its verification, the answer's
-        confidence region.
+        A move to the best reachable bias, the bias verified, its verification.
         """
         return None
 
@@ -160,7 +156,7 @@ class LeanProtocol(Protocol):
     """Points where the modes are, every sweep kept (see the module).
 
     Later iterations fit every sweep while the last verification agrees with the model
-    (:meth:`_prediction_missed`); after that, or a move to the best reachable bias, the sweeps
+    (:meth:`_design_now`); after that, or a move to the best reachable bias, the sweeps
     near the bias, measuring the local design wherever they do not meet the rank condition.
     """
 
@@ -174,8 +170,11 @@ class LeanProtocol(Protocol):
         self.local = False
         self.moved = False
         self.last_verified: tuple[np.ndarray, np.ndarray] | None = None
-        self.last_region: ConfidenceRegion | None = None
         self.splits: list[float] = []  # every verified split, in order
+        #: The split located where the run started (the rate of its first answer), and the
+        #: points of each sweep of the latest verification (what one costs).
+        self.start_split: float | None = None
+        self.verify_points: list[int] = []
         #: With ``probe``, the run's first look at the band is a probe
         #: (:mod:`sysid_core.measure.locating`); whether it found the bench quiet decides the first
         #: design.
@@ -200,7 +199,7 @@ class LeanProtocol(Protocol):
                 "back to the least measured split's); measuring the local design there"
             )
         elif it > 1 and not self.local:
-            why, prefit = self._prediction_missed(it)
+            why, prefit = self._design_now(it)
             if why is None:
                 ctx.say(f"iteration {it}: fitting all {len(self.known)} sweeps so far")
                 return (prefit[0], prefit) if prefit is not None else (self.known.union(), None)
@@ -214,6 +213,7 @@ class LeanProtocol(Protocol):
                 if not self.known.has(b):
                     self._learn(b, folder / f"exp{j}.nc")
         if it == 1:
+            self.start_split = self.known.split_at(bias)
             ctx.say(
                 f"iteration {it}: fitting {ctx.fitter.structure.name} model to "
                 f"{len(self.known)} sweeps"
@@ -264,17 +264,17 @@ class LeanProtocol(Protocol):
                 finest = FINE_STEP * max(min(narrowest, float(np.min(seen))), narrowest / 4)
             return mode_grid(guess, self.ctx.plan, resolve=True, fine=True, finest_hz=finest)
 
-        return self._verify_with(bias, predicted, model, folder, self.locate_plan, window)
+        before = len(self.known)
+        ver = self._verify_with(bias, predicted, model, folder, self.locate_plan, window)
+        self.verify_points = [int(m.data.sizes["frequency"]) for m in self.known.items[before:]]
+        return ver
 
-    def learned(
-        self, moved: bool, bias: np.ndarray, ver: Verification, region: ConfidenceRegion | None
-    ) -> None:
-        """Keep whether the run moved, and the verified bias, modes and region if verified."""
+    def learned(self, moved: bool, bias: np.ndarray, ver: Verification) -> None:
+        """Keep whether the run moved, and the verified bias and modes if verified."""
         self.moved = moved
         if ver.verified and ver.frequencies_hz is not None:
             self.last_verified = (bias.copy(), np.asarray(ver.frequencies_hz, dtype=float))
             self.splits.append(float(ver.split_hz or 0.0))
-            self.last_region = region
         if self.previous is not None:
             why = self.previous.judge(ver, self.ctx.left())
             if why is not None:
@@ -308,33 +308,33 @@ class LeanProtocol(Protocol):
         self.known.add(found[0], found[2])
         return found
 
-    def _prediction_missed(self, it: int) -> tuple[str | None, Prefit | None]:
-        """Why the last prediction does not stand (the law holds only locally), or None.
+    def _design_now(self, it: int) -> tuple[str | None, Prefit | None]:
+        """Why the run measures the local design now, or None (it verifies the next answer).
 
-        It does not when the verified split is outside its predicted 95 % range, falls too
-        slowly (:mod:`sysid_core.measure.contraction`), or the model of all sweeps does not
-        reproduce the verified modes (:func:`~sysid_core.measure.lean.explained_gap`).
-
-        With None comes the fit of all sweeps that judged it (the iteration's fit, when the union
-        stands).
+        Verifying the next answers alone must be the quicker way to the acceptance at the rate
+        the split fell (:func:`~sysid_core.measure.contraction.too_slow`, with the costs on the
+        bench clock), and the model of all sweeps must reproduce the verified modes
+        (:func:`~sysid_core.measure.lean.explained_gap`) unless the answer's model is anchored
+        on them (a tracked run). With None comes the fit of all sweeps (the iteration's).
         """
         if self.last_verified is None:
             return None, None
         vb, vf = self.last_verified
         split = float(vf[1] - vf[0])
-        region = self.last_region
-        if region is not None and split > region.split_ci_hz[1] + EXPLAIN_FLOOR_HZ:
-            lo, hi = region.split_ci_hz
-            return (
-                f"the verified split {split * 1e3:.3g} mHz is outside the predicted 95 % range "
-                f"{lo * 1e3:.3g}-{hi * 1e3:.3g} mHz"
-            ), None
-        tuning, last = self.ctx.config.tuning, self.splits[-2] if len(self.splits) > 1 else None
-        slow = too_slow(last, split, self.ctx.left(), tuning.acceptance_hz)
+        tuning = self.ctx.config.tuning
+        last = self.splits[-2] if len(self.splits) > 1 else self.start_split
+        try:  # the local design's sweeps not measured yet, priced like the verification's
+            missing = sum(not self.known.has(b) for b in self.ctx.design(vb, it))
+            costs = Costs.of(self.ctx.cost_s, self.verify_points, missing)
+        except SysidError:  # no local design there: the rate alone decides
+            costs = None
+        slow = too_slow(last, split, self.ctx.left(), tuning.acceptance_hz, costs)
         if slow is not None:
             return slow, None
         union = self.known.union()
         model, notes = self.ctx.fitter.fit(union)
+        if self.ctx.config.model.policy.tracking(self.ctx.bench.clock_span_s is not None):
+            return None, (union, model, notes)
         gap = explained_gap(model.modal(vb[self.ctx.space.index]).frequencies_hz, vf)
         if gap is None:
             return None, (union, model, notes)

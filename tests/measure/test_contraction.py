@@ -1,4 +1,4 @@
-"""A split that falls too slowly to reach the acceptance in time sends the run to the local design.
+"""The local design, when the split falls too slowly or verifying alone would cost more.
 
 Truth: random gyro 108 (18.4 kHz, input dynamics) on the bench of a good lab (0.2 K/h ramp,
 0.05 K/√h walk, a clock), tuned from 0 V with its own structure, judged by the simulated gyro's
@@ -15,7 +15,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from sysid_core import tune
-from sysid_core.measure.contraction import too_slow
+from sysid_core.measure.contraction import Costs, too_slow, verifications_needed
 from sysid_core.plugin.registry import get_registry
 
 splits = st.floats(1e-5, 10.0)
@@ -35,6 +35,46 @@ def test_the_rate_decides() -> None:
     assert too_slow(2.643, 0.065, 2, 0.002) is None
     # a split that grew never reaches it
     assert too_slow(0.010, 0.020, 3, 0.002) is not None
+
+
+def test_verifications_needed_at_the_rate_seen() -> None:
+    assert verifications_needed(2.643, 0.0015, 0.002) == 0  # already under
+    # 249 mHz at 249/2643 per verification: 23.5, 2.2, then 0.21 mHz
+    assert verifications_needed(2.643, 0.249, 0.002) == 3
+    assert verifications_needed(0.010, 0.020, 0.002) == float("inf")
+
+
+def test_the_costs_decide_when_the_iterations_allow_either_way() -> None:
+    # three verifications of 10 s against a design of 40 s and one verification: verify
+    assert too_slow(2.643, 0.249, 10, 0.002, Costs(10.0, 40.0)) is None
+    # against a design of 10 s: the design and one verification cost 20 s, the three 30 s
+    why = too_slow(2.643, 0.249, 10, 0.002, Costs(10.0, 10.0))
+    assert why is not None and "the 3 verifications it needs would cost 1.5 times" in why
+    # a fast fall (a good model) is never paid a design: one more verification does it
+    assert too_slow(2.643, 0.0065, 10, 0.002, Costs(10.0, 0.0)) is None
+
+
+def test_costs_of_a_verification_and_a_design() -> None:
+    def cost(points: int, change: bool) -> float:
+        return -(-points // 8) * 2.0 + (3.0 if change else 0.0)
+
+    costs = Costs.of(cost, [16, 40], 4)
+    assert costs == Costs(2 * 2.0 + 3.0 + 5 * 2.0, 4 * (2 * 2.0 + 3.0))
+    assert Costs.of(None, [16], 4) is None and Costs.of(cost, [], 4) is None
+
+
+@given(
+    last=splits,
+    split=splits,
+    verify=st.floats(0.1, 100.0),
+    design=st.floats(0.0, 1000.0),
+    more=st.floats(1.0, 10.0),
+)
+def test_a_dearer_design_never_pays_where_a_cheaper_one_did_not(
+    last: float, split: float, verify: float, design: float, more: float
+) -> None:
+    if too_slow(last, split, 20, 0.002, Costs(verify, design * more)) is not None:
+        assert too_slow(last, split, 20, 0.002, Costs(verify, design)) is not None
 
 
 @given(last=splits, split=splits, more=st.floats(1.0, 10.0), left=st.integers(1, 6))
@@ -73,3 +113,31 @@ def test_a_slow_fall_measures_the_local_design_and_ends_under_the_acceptance(
     assert any("local design" in line or "sweeps near the bias" in line for line in lines)
     f = device.true_modal_frequencies_hz(result.bias)
     assert f[1] - f[0] <= 0.002
+
+
+def test_a_fast_fall_verifies_the_next_answer_without_a_design(tmp_path: Path) -> None:
+    """Random gyro 212 on a good lab's clock with 8 tones: the first answer takes the split from
+    about 11 Hz at 0 V to 65 mHz (a rate under 1 %), so one more verification is expected to do
+    what the local design (four sweeps, then a verification) would: the run measures none."""
+    bench = {"clock": True, "seed": 212, "tones": 8, "temperature_ramp_k_per_h": 0.2}
+    bench["temperature_walk_k_per_sqrt_h"] = 0.05
+    device = get_registry().device("random-gyro", seed=212, bench=bench)
+    config = {
+        "device": {"name": "random-gyro", "seed": 212},
+        "model": {"structure": device.structure},
+        "tuning": {
+            "criterion": "degenerate",
+            "electrodes": ["B1", "B2"],
+            "start_bias": [0.0] * len(device.electrodes),
+            "acceptance_hz": 0.001,
+            "max_iterations": 6,
+        },
+        "experiment": {"bias_step": 3.0},
+    }
+    lines: list[str] = []
+    result = tune(config, tmp_path / "run", plots=False, device=device, progress=lines.append)
+    assert any(line.startswith("iteration 2: fitting all") for line in lines), "\n".join(lines)
+    assert not list((tmp_path / "run" / "iter02").glob("exp*.nc"))  # its verification only
+    assert not any("local design" in line for line in lines)
+    f = device.true_modal_frequencies_hz(result.bias)
+    assert result.converged and f[1] - f[0] <= 2 * 0.001
