@@ -84,6 +84,9 @@ class Tracker:
     blind: list[bool] = field(default_factory=list)
     #: The rates the last :meth:`now` found (common and split), or None.
     rates: OffsetDrift | None = None
+    #: Whether the last :meth:`now` measured the common rate (windows at two times or more, or
+    #: a fit that carries the trend); otherwise the common part of :attr:`rates` is none.
+    common_measured: bool = False
     #: The split the windows predicted at the next window by the last :meth:`now`, or None.
     forecast: SplitForecast | None = None
 
@@ -226,6 +229,7 @@ class Tracker:
             span = np.concatenate([stamps(w) for w, _ in chosen_own])
             moved = with_split_rate(moved, self.forecast, float(np.ptp(span)))
         self.rates = seen = offset_drift(moved)
+        self.common_measured = found.rate is not None or model.facts.trend_per_s is not None
         rates = (
             ""
             if seen is None or found.rate is None  # one time: no common rate measured

@@ -17,7 +17,8 @@ would not reach it in the iterations the budget leaves, or when the split did no
 the run then measures the local design (:class:`~sysid_core.run.protocols.LeanProtocol`, and a
 run from a previous model, :class:`~sysid_core.measure.previous.PreviousModel`). Otherwise it
 fits every sweep again and verifies the next answer: a model whose answers contract fast
-(``r`` of a few percent) is not paid a design it does not need.
+(``r`` of a few percent) is not paid a design it does not need. The rate assumes the sweeps
+still describe the gyro; on a drifting bench sweeps an hour apart do not (:func:`aged`).
 """
 
 from __future__ import annotations
@@ -26,7 +27,9 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-__all__ = ["Costs", "too_slow", "verifications_needed"]
+from sysid_core.measure.fitter import TREND_SPAN_S
+
+__all__ = ["Costs", "aged", "too_slow", "verifications_needed"]
 
 
 @dataclass(frozen=True)
@@ -58,6 +61,23 @@ class Costs:
             return None
         once = sum(cost_s(n, k == 0) for k, n in enumerate(verify))
         return cls(once, design * cost_s(verify[0], True))
+
+
+def aged(span_s: float | None) -> str | None:
+    """Why a tracked run's sweeps are too old to be fitted together any longer, or None.
+
+    Over more than :data:`~sysid_core.measure.fitter.TREND_SPAN_S` of bench clock, charging and
+    temperature move the stiffness by as much as the bias law does
+    (:mod:`sysid_core.measure.fitter`): the fit of every sweep then describes the drift only as
+    a trend in time, and its answers miss by what the trend misses. Fresh sweeps near the bias
+    (the local design) pay then, whatever the rate.
+    """
+    if span_s is None or span_s <= TREND_SPAN_S:
+        return None
+    return (
+        f"the sweeps span {span_s / 3600:.2g} h, over which the drift moves the stiffness as much "
+        "as the bias law does"
+    )
 
 
 def verifications_needed(last_hz: float, split_hz: float, acceptance_hz: float) -> float:

@@ -39,6 +39,11 @@ class RunContext:
     #: (:meth:`sysid_core.clock.runclock.RunClock.sweep_s`); None: nothing compares costs.
     cost_s: Callable[[int, bool], float] | None = None
 
+    @property
+    def tracking(self) -> bool:
+        """Whether the run tracks the drift (``drift = "track"``, or ``"auto"`` on a clock)."""
+        return self.config.model.policy.tracking(self.bench.clock_span_s is not None)
+
     def left(self) -> int:
         """Iterations the run can still start, this one included if it has not measured yet.
 

@@ -320,7 +320,7 @@ class TuningRun:
         now = self.tracker.now(model, ds, self.say, it)
         seen = self.tracker.rates
         if seen is not None:
-            self.drift_hz_per_h = seen.common_hz_per_h
+            self.drift_hz_per_h = seen.common_hz_per_h if self.tracker.common_measured else None
             self.drift_split_hz_per_h = seen.split_hz_per_h
         if now is not model:
             now.save(self.out / f"iter{it:02d}" / "model-now.nc")

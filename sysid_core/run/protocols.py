@@ -23,9 +23,10 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.clock.benchtime import settle as settle_s
+from sysid_core.clock.runclock import stamps_span_s
 from sysid_core.data.schema import concat_experiments, point_times
 from sysid_core.errors import ConfigError, SysidError
-from sysid_core.measure.contraction import Costs, too_slow
+from sysid_core.measure.contraction import Costs, aged, too_slow
 from sysid_core.measure.evidence import WindowAssessment
 from sysid_core.measure.knowledge import Knowledge
 from sysid_core.measure.lean import (
@@ -311,32 +312,28 @@ class LeanProtocol(Protocol):
     def _design_now(self, it: int) -> tuple[str | None, Prefit | None]:
         """Why the run measures the local design now, or None (it verifies the next answer).
 
-        Verifying the next answers alone must be the quicker way to the acceptance at the rate
-        the split fell (:func:`~sysid_core.measure.contraction.too_slow`, with the costs on the
-        bench clock), and the model of all sweeps must reproduce the verified modes
-        (:func:`~sysid_core.measure.lean.explained_gap`) unless the answer's model is anchored
-        on them (a tracked run). With None comes the fit of all sweeps (the iteration's).
+        Verifying alone must be the quicker way to the acceptance at the rate the split fell,
+        priced on the bench clock (:func:`~sysid_core.measure.contraction.too_slow`); on a
+        tracked run the sweeps must not be :func:`~sysid_core.measure.contraction.aged`; on
+        another the model of all sweeps must reproduce the verified modes
+        (:func:`~sysid_core.measure.lean.explained_gap`). With None comes the fit of all sweeps.
         """
         if self.last_verified is None:
             return None, None
-        vb, vf = self.last_verified
-        split = float(vf[1] - vf[0])
-        tuning = self.ctx.config.tuning
+        (vb, vf), ctx = self.last_verified, self.ctx
         last = self.splits[-2] if len(self.splits) > 1 else self.start_split
         try:  # the local design's sweeps not measured yet, priced like the verification's
-            missing = sum(not self.known.has(b) for b in self.ctx.design(vb, it))
-            costs = Costs.of(self.ctx.cost_s, self.verify_points, missing)
+            missing = sum(not self.known.has(b) for b in ctx.design(vb, it))
+            costs = Costs.of(ctx.cost_s, self.verify_points, missing)
         except SysidError:  # no local design there: the rate alone decides
             costs = None
-        slow = too_slow(last, split, self.ctx.left(), tuning.acceptance_hz, costs)
-        if slow is not None:
-            return slow, None
-        union = self.known.union()
-        model, notes = self.ctx.fitter.fit(union)
-        if self.ctx.config.model.policy.tracking(self.ctx.bench.clock_span_s is not None):
-            return None, (union, model, notes)
-        gap = explained_gap(model.modal(vb[self.ctx.space.index]).frequencies_hz, vf)
-        if gap is None:
+        split, union, tracking = float(vf[1] - vf[0]), self.known.union(), ctx.tracking
+        why = too_slow(last, split, ctx.left(), ctx.config.tuning.acceptance_hz, costs)
+        if why or (tracking and (why := aged(stamps_span_s(union)))):
+            return why, None
+        model, notes = ctx.fitter.fit(union)
+        f = model.modal(vb[ctx.space.index]).frequencies_hz
+        if tracking or (gap := explained_gap(f, vf)) is None:
             return None, (union, model, notes)
         n = len(self.known)
         return f"a model of all {n} sweeps misses the verified modes by {gap * 1e3:.3g} mHz", None

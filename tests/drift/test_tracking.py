@@ -96,17 +96,16 @@ def test_auto_tracks_on_a_bench_with_a_clock_and_not_without_one(tmp_path: Path)
 
 
 def test_a_stale_window_is_measured_again_and_gives_the_rates(tmp_path: Path) -> None:
-    """Random gyro 103 (2.9 kHz, the lab's bench): the window verified at the first answer is
-    older than the local design measured after it; measured again, the two windows of one bias
-    anchor the model with a rate, and the run converges at the second answer (0.3 mHz true).
-    Found with the whole locating sweep first (``probe = false``; with the probe its first
-    answer lands elsewhere and no window goes stale)."""
-    tracked, summary, lines = run(tmp_path, "track", seed=103, probe=False)
+    """Random gyro 119 (25.8 kHz, the lab's bench): the window verified at an answer is older
+    than the local design measured after it (its split fell too slowly); measured again, the
+    two windows of one bias anchor the model with a rate, and the run converges (1.1 mHz true).
+    Found with the whole locating sweep first (``probe = false``)."""
+    tracked, summary, lines = run(tmp_path, "track", seed=119, probe=False)
     assert tracked < ACCEPTANCE
     assert summary["converged"]
     assert summary["drift_split_hz_per_h"] is not None
     assert summary["drift_common_hz_per_h"] is not None
-    again = sorted((tmp_path / "track103").glob("iter*/window-again.nc"))
+    again = sorted((tmp_path / "track119").glob("iter*/window-again.nc"))
     assert again, "no window measured again"
     it = int(again[0].parent.name[4:])
     anchored = [line for line in lines if line.startswith(f"iteration {it}: the model anchored")]

@@ -65,18 +65,26 @@ def test_data_without_time_stamps_are_fitted_without_drift_and_say_so() -> None:
     assert "drift_rate_per_h" not in model.meta
 
 
-def test_a_run_on_a_ramp_tracks_the_gyro_and_reports_the_drift(tmp_path: Path) -> None:
+def test_a_run_on_a_ramp_tracks_the_gyro_and_claims_no_drift_it_did_not_measure(
+    tmp_path: Path,
+) -> None:
+    """The cloverleaf on a 1.5 K/h ramp converges at its second answer, each anchored on the one
+    window before it: no two windows at one bias, no fit over an hour, so no common rate was
+    measured and none is reported (a rate of 0 would claim a gyro that does not drift). The
+    rates a run measures are checked against the truth in
+    :func:`test_epoch_offsets_and_a_trend_see_a_temperature_ramp` and
+    tests/drift/test_tracking.py."""
     device = CloverleafGyro(seed=1, bench={"clock": True, "temperature_ramp_k_per_h": RAMP_K_PER_H})
     lines: list[str] = []
     config = {"device": {"name": "cloverleaf", "seed": 1}, **MAIN_JOB}
     result = tune(config, tmp_path / "run", device=device, progress=lines.append, plots=False)
     truth = device.true_modal_frequencies_hz(result.bias)  # at the end of the run
     assert result.converged and truth[1] - truth[0] < 0.002
-    expected = RATE_PER_H * truth.mean()  # Hz per hour
-    assert result.drift_common_hz_per_h == pytest.approx(expected, rel=0.2)
-    assert any("mHz/h common" in line for line in lines)
+    assert any("the model anchored on 1 verified window(s)" in line for line in lines)
+    assert not any("mHz/h common" in line for line in lines)
+    assert result.drift_common_hz_per_h is None
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())
-    assert summary["drift_common_hz_per_h"] == pytest.approx(result.drift_common_hz_per_h)
+    assert summary["drift_common_hz_per_h"] is None
 
 
 def test_the_drift_key_is_checked() -> None:

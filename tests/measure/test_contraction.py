@@ -15,7 +15,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from sysid_core import tune
-from sysid_core.measure.contraction import Costs, too_slow, verifications_needed
+from sysid_core.measure.contraction import Costs, aged, too_slow, verifications_needed
+from sysid_core.measure.fitter import TREND_SPAN_S
 from sysid_core.plugin.registry import get_registry
 
 splits = st.floats(1e-5, 10.0)
@@ -52,6 +53,13 @@ def test_the_costs_decide_when_the_iterations_allow_either_way() -> None:
     assert why is not None and "the 3 verifications it needs would cost 1.5 times" in why
     # a fast fall (a good model) is never paid a design: one more verification does it
     assert too_slow(2.643, 0.0065, 10, 0.002, Costs(10.0, 0.0)) is None
+
+
+def test_sweeps_over_an_hour_apart_are_aged() -> None:
+    assert aged(None) is None  # no clock: nothing to say
+    assert aged(0.9 * TREND_SPAN_S) is None
+    why = aged(2.0 * TREND_SPAN_S)
+    assert why is not None and "span 2 h" in why
 
 
 def test_costs_of_a_verification_and_a_design() -> None:

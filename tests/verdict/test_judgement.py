@@ -43,7 +43,7 @@ def test_a_split_biased_by_the_wrong_structure_is_not_converged(tmp_path: Path) 
     device = get_registry().device("random-gyro", seed=108)
     acceptance = 0.003
     config = degenerate_config(
-        device, {"seed": 108}, iterations=3, acceptance_hz=acceptance, model={"structure": "act"}
+        device, {"seed": 108}, iterations=4, acceptance_hz=acceptance, model={"structure": "act"}
     )
     result = tune(config, tmp_path / "run", device=device, plots=False)
     f = device.true_modal_frequencies_hz(result.bias)

@@ -1,10 +1,9 @@
 """A split that drifts by the acceptance within half a window stops the run, not converged.
 
-Truth for the slow test: random gyro 319 (2.1 kHz) on the uncontrolled lab's bench (±1.5 K/h,
-0.5 K/√h, charging, analyzer wander, 60 dB), tracked, up to 8 iterations; the judge is the
-simulated gyro's true split at the end of the run. Its fourth verification measured 0.30 mHz
-while its true split went from 0.27 to 1.53 mHz within the window; the drift goal said 2.47 mHz.
-The run went on, and its last four iterations drifted it to 8.1 mHz.
+The case: random gyro 319 (2.1 kHz) on the uncontrolled lab's bench (±1.5 K/h, 0.5 K/√h,
+charging, analyzer wander, 60 dB), tracked: its fourth verification once measured 0.30 mHz while
+its true split went from 0.27 to 1.53 mHz within the window; the drift goal said 2.47 mHz. The
+run went on, and its last four iterations drifted it to 8.1 mHz.
 """
 
 from __future__ import annotations
@@ -52,34 +51,31 @@ def test_no_drift_goal_no_stop() -> None:
     assert outpaced([Goal("split", 0.003, ACCEPTANCE)], 0.003, ACCEPTANCE) is None
 
 
-def test_a_slow_gyro_in_the_lab_stops_where_its_drift_outpaces_it(tmp_path: Path) -> None:
-    bench = {
-        "clock": True,
-        "seed": 319,
-        "tones": 1,
-        "temperature_ramp_k_per_h": 1.5,
-        "temperature_walk_k_per_sqrt_h": 0.5,
-        "charging_v_per_h": 0.015,
-        "gain_wander": 0.003,
-        "phase_wander_deg": 0.1,
-    }
-    device = get_registry().device("random-gyro", seed=319, noise=1e-3, bench=bench)
+def test_a_stop_ends_the_run_there_not_converged(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The loop obeys the verdict's stop: the run ends at that iteration, not converged, with the
+    reason in its notes and its progress. (Random gyro 319 in the uncontrolled lab once stopped
+    so at its fourth iteration; since the local design is measured only where it pays, its run
+    takes another path and ends converged at 1.75 mHz true, so the stop is forced here.)"""
+    import sysid_core.run.pipeline as pipeline
+
+    real = pipeline.verdict
+    why = "the drift outruns the verification: forced by the test"
+
+    def stopping(*args: object, **kwargs: object) -> tuple[list[Goal], bool, str | None]:
+        goals, _, _ = real(*args, **kwargs)  # type: ignore[arg-type]
+        return goals, False, why
+
+    monkeypatch.setattr(pipeline, "verdict", stopping)
+    bench = {"clock": True, "seed": 1, "temperature_ramp_k_per_h": 1.5}
+    device = get_registry().device("cloverleaf", seed=1, bench=bench)
     config = {
-        "device": {"name": "random-gyro", "seed": 319, "noise": 1e-3},
-        "model": {"drift": "track", "structure": device.structure},
-        "tuning": {
-            "criterion": "degenerate",
-            "electrodes": ["B1", "B2"],
-            "start_bias": [0.0] * len(device.electrodes),
-            "acceptance_hz": ACCEPTANCE,
-            "max_iterations": 8,
-        },
+        "device": {"name": "cloverleaf", "seed": 1},
+        "tuning": {"criterion": "degenerate", "electrodes": ["B1", "B2"], "max_iterations": 6},
     }
-    result = tune(config, tmp_path / "run", plots=False, device=device)
-    summary = result.as_dict()
-    stops = [n for n in summary["notes"] if "no verification on this bench" in n]
-    assert stops and not result.converged and result.iterations < 8
-    f = device.true_modal_frequencies_hz(result.bias)
-    assert f[1] - f[0] <= ACCEPTANCE
-    goals = {g["name"]: g["met"] for g in summary["goals"]}
-    assert goals["split"] and not goals[DRIFT_GOAL]
+    lines: list[str] = []
+    result = tune(config, tmp_path / "run", plots=False, device=device, progress=lines.append)
+    assert result.iterations == 1 and not result.converged
+    assert any(why in note for note in result.as_dict()["notes"])
+    assert any(line.endswith(why) for line in lines)
