@@ -10,9 +10,11 @@ ended at 18 mHz; it measured no local design.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 from hypothesis import given
 from hypothesis import strategies as st
+from truths import degenerate_config
 
 from sysid_core import tune
 from sysid_core.measure.contraction import Costs, aged, too_slow, verifications_needed
@@ -20,6 +22,13 @@ from sysid_core.measure.fitter import TREND_SPAN_S
 from sysid_core.plugin.registry import get_registry
 
 splits = st.floats(1e-5, 10.0)
+
+
+def good_lab(seed: int, ramp_k_per_h: float, **bench: object) -> tuple[Any, dict[str, Any]]:
+    """Random gyro ``seed`` on a good lab's bench with a clock; the device and its options."""
+    drift = {"temperature_ramp_k_per_h": ramp_k_per_h, "temperature_walk_k_per_sqrt_h": 0.05}
+    bench = {"clock": True, "seed": seed, **drift, **bench}
+    return get_registry().device("random-gyro", seed=seed, bench=bench), {"seed": seed}
 
 
 def test_nothing_to_judge_without_two_splits_iterations_left_or_a_split_over() -> None:
@@ -98,23 +107,10 @@ def test_a_larger_split_or_a_smaller_last_one_is_never_judged_faster(
 def test_a_slow_fall_measures_the_local_design_and_ends_under_the_acceptance(
     tmp_path: Path,
 ) -> None:
-    bench = {"clock": True, "seed": 108, "temperature_ramp_k_per_h": -0.2}
-    bench["temperature_walk_k_per_sqrt_h"] = 0.05
-    device = get_registry().device("random-gyro", seed=108, bench=bench)
-    config = {
-        "device": {"name": "random-gyro", "seed": 108},
-        "model": {"structure": device.structure},
-        "tuning": {
-            "criterion": "degenerate",
-            "electrodes": ["B1", "B2"],
-            "start_bias": [0.0] * len(device.electrodes),
-            "acceptance_hz": 0.002,
-            "max_iterations": 4,
-        },
-        # found with the whole locating sweep first: with the probe (the default on a bench
-        # with a clock) the first answers of gyro 108 fall fast enough
-        "experiment": {"probe": False},
-    }
+    device, options = good_lab(108, -0.2)
+    # found with the whole locating sweep first: with the probe (the default on a bench with a
+    # clock) the first answers of gyro 108 fall fast enough
+    config = degenerate_config(device, options, 4, experiment={"probe": False})
     lines: list[str] = []
     result = tune(config, tmp_path / "run", plots=False, device=device, progress=lines.append)
     assert any("the verified split fell from" in line for line in lines), "\n".join(lines)
@@ -127,21 +123,8 @@ def test_a_fast_fall_verifies_the_next_answer_without_a_design(tmp_path: Path) -
     """Random gyro 212 on a good lab's clock with 8 tones: the first answer takes the split from
     about 11 Hz at 0 V to 65 mHz (a rate under 1 %), so one more verification is expected to do
     what the local design (four sweeps, then a verification) would: the run measures none."""
-    bench = {"clock": True, "seed": 212, "tones": 8, "temperature_ramp_k_per_h": 0.2}
-    bench["temperature_walk_k_per_sqrt_h"] = 0.05
-    device = get_registry().device("random-gyro", seed=212, bench=bench)
-    config = {
-        "device": {"name": "random-gyro", "seed": 212},
-        "model": {"structure": device.structure},
-        "tuning": {
-            "criterion": "degenerate",
-            "electrodes": ["B1", "B2"],
-            "start_bias": [0.0] * len(device.electrodes),
-            "acceptance_hz": 0.001,
-            "max_iterations": 6,
-        },
-        "experiment": {"bias_step": 3.0},
-    }
+    device, options = good_lab(212, 0.2, tones=8)
+    config = degenerate_config(device, options, 6, 0.001, experiment={"bias_step": 3.0})
     lines: list[str] = []
     result = tune(config, tmp_path / "run", plots=False, device=device, progress=lines.append)
     assert any(line.startswith("iteration 2: fitting all") for line in lines), "\n".join(lines)
