@@ -188,8 +188,8 @@ class ExperimentConfig(_Strict):
     (:mod:`sysid_core.measure.lean`): the whole band only to locate the modes (at most 61 points),
     every other sweep only around where the modes are known or predicted to be, and every sweep
     of the run reused by later fits; iterations after the first measure nothing but the
-    verification while it agrees with the model (inside the predicted 95 % range, and
-    reproduced by the model of all sweeps); otherwise the sweeps near the bias, with the local
+    verification while that is the cheaper way to the acceptance at the rate the split falls
+    (:mod:`sysid_core.measure.contraction`); otherwise the sweeps near the bias, with the local
     design there. ``"full"``: every iteration measures its whole design over the band (the
     first) or ``refine_span_hz`` (later) at the configured resolutions, as the paper does.
     Measured on the cloverleaf (49 starts, ``docs/studies/bench-time-lab.md``): to a true split
