@@ -356,6 +356,7 @@ class TuningRun:
             acceptance_hz=self.config.tuning.acceptance_hz,
             least_measured=seen[0],
             latest_measured=seen[1],
+            local_fit=self.protocol.local,
         )
         result = step.result
         write_json(folder / "tuning.json", result.as_dict())

@@ -61,6 +61,9 @@ Found = tuple[xr.Dataset, FittedModel, WindowAssessment]
 class Protocol(ABC):
     """What an iteration measures and fits, and how it verifies; one per run."""
 
+    #: The latest iteration fitted only the sweeps near its bias (answers hold only near them).
+    local = False
+
     def __init__(self, ctx: RunContext) -> None:
         self.ctx = ctx
 
@@ -135,7 +138,7 @@ class FullProtocol(Protocol):
         self, it: int, bias: np.ndarray, folder: Path, center_hz: float | None, split_hz: float
     ) -> tuple[xr.Dataset, Prefit | None]:
         """The iteration's own design around ``bias``, measured afresh (no prior fit)."""
-        ctx = self.ctx
+        ctx, self.local = self.ctx, it > 1
         design = ctx.design(bias, it)
         freqs = ctx.plan.refine(center_hz, split_hz)
         parts = [ctx.bench.measure(b, freqs, folder / f"exp{j}.nc") for j, b in enumerate(design)]

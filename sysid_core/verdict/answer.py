@@ -92,6 +92,7 @@ def answer(
     latest_measured: tuple[float, np.ndarray] | None = None,
     near_acceptances: float = NEAR_ACCEPTANCES,
     local_step: float | None = None,
+    local_fit: bool = False,
 ) -> Answer:
     """The answer of iteration ``it`` (see the module).
 
@@ -103,7 +104,8 @@ def answer(
     (:func:`dac_floor`). An answer the run's measurements do not support is not applied
     (:mod:`sysid_core.verdict.trust`): the run goes back to the least measured split's bias, or
     takes the linearised step from the latest verified bias (``latest_measured``), no longer
-    than the local design's step (``local_step``, else ``bias_step``).
+    than the local design's step (``local_step``, else ``bias_step``); from a model of the sweeps
+    near the bias only (``local_fit``), at any split.
     """
     try:
         result, local = solve_criterion(criterion, model, space)
@@ -161,6 +163,7 @@ def answer(
             bias_step if local_step is None else local_step,
             near_acceptances,
             None if step.result.confidence is None else step.result.confidence.split_ci_hz[1],
+            local_fit,
         )
     )
     if untrusted is not None:

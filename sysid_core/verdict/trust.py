@@ -10,14 +10,15 @@ reach:
   believe; the run goes back to that verification's bias and measures the local design.
 * :func:`untrusted_step`: once a verification measured a split near degenerate modes (under
   :data:`~sysid_core.drift.tracker.NEAR_ACCEPTANCES` acceptances), or one the answer's own
-  95 % region does not promise to beat (its upper end over the split measured), the model's
-  law, linearised at the verified bias, says how far to go (the Gauss-Newton step: the split
-  vector is smooth in the bias there). An answer further than twice that step, and further
-  than the local design reaches (``[experiment] bias_step``), is not that correction: another
-  root of the law, another point of a whole set of degenerate biases (more electrodes than the
-  two goals need), or the law carried where no sweep measured it. The run takes the linearised
-  step instead (no longer than ``bias_step``), which the data around the verified bias
-  support, and measures the local design there.
+  95 % region does not promise to beat (its upper end over the split measured), or whenever the
+  model was fitted to the sweeps near the verified bias only (a local fit, whose law and region
+  hold only there), the model's law, linearised at the verified bias, says how far to go (the
+  Gauss-Newton step: the split vector is smooth in the bias there). An answer further than
+  twice that step, and further than the local design reaches (``[experiment] bias_step``), is
+  not that correction: another root of the law, another point of a whole set of degenerate
+  biases (more electrodes than the two goals need), or the law carried where no sweep measured
+  it. The run takes the linearised step instead (no longer than ``bias_step``), which the data
+  around the verified bias support, and measures the local design there.
 """
 
 from __future__ import annotations
@@ -76,6 +77,7 @@ def untrusted_step(
     bias_step: float,
     near_acceptances: float,
     region_upper_hz: float | None = None,
+    local: bool = False,
 ) -> np.ndarray | None:
     """The linearised step's bias (every electrode), if ``answer`` goes beyond it; else None.
 
@@ -94,12 +96,16 @@ def untrusted_step(
     region_upper_hz : float, optional
         The upper end of the split over the answer's 95 % region: over the latest measured
         split, the answer does not promise to improve on it.
+    local : bool
+        The model was fitted to the sweeps near the latest bias only (the local design): its
+        law, and its region, are measured there and nowhere else, so the rule applies at any
+        split.
     """
     if latest is None:
         return None
     near = latest[0] <= near_acceptances * acceptance_hz
     unpromising = region_upper_hz is not None and region_upper_hz > latest[0]
-    if not (near or unpromising):
+    if not (near or unpromising or local):
         return None
     where = np.asarray(latest[1], dtype=float)
     b0 = where[tuned]

@@ -301,6 +301,29 @@ def test_an_answer_beyond_the_linearised_step_from_a_near_bias_is_not_taken(
     assert untrusted_step(model, answer_bias, None, space.index, ACCEPTANCE, 0.25, 10.0) is None
 
 
+def test_an_answer_of_a_local_fit_beyond_the_linearised_step_is_not_taken_at_any_split() -> None:
+    """A model of the sweeps near the verified bias only knows its law there: 50 mHz measured (not
+    near) and a region that promises 20 mHz, an answer 3 V away is taken from the union's model
+    but not from a local one, which steps as its law linearised at the verified bias asks."""
+    from sysid_core.tuning.criteria import solve_criterion
+    from sysid_core.verdict.trust import untrusted_step
+
+    model = fit(simulate(cloverleaf_truth(), PAPER_BIASES, PAPER_FREQS))
+    space = BiasSpace(
+        ["B1", "B2", "B3"], ["B1", "B2"], np.array([1.0, 1.0, 0.0]), (-10.0, 10.0), V_GYRO
+    )
+    reg = get_registry()
+    criterion = reg.criterion("degenerate", solver=reg.solver("clarabel"))
+    root = solve_criterion(criterion, model, space)[0].bias
+    latest = (0.05, root + np.array([0.01, -0.01, 0.0]))
+    far = root + np.array([3.0, 0.0, 0.0])
+    args = (model, far, latest, space.index, ACCEPTANCE, 0.25, 10.0, 0.02)
+    assert untrusted_step(*args) is None
+    found = untrusted_step(*args, local=True)
+    assert found is not None
+    np.testing.assert_allclose(found[:2], root[:2], atol=1e-3)
+
+
 @pytest.mark.parametrize(
     ("bound", "aim", "converged"),
     [
