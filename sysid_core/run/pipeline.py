@@ -318,8 +318,7 @@ class TuningRun:
         assert self.tracker is not None
         self.tracker.refresh(ds, self.protocol.sweep, self.out / f"iter{it:02d}", self.say, it)
         now = self.tracker.now(model, ds, self.say, it)
-        seen = self.tracker.rates
-        if seen is not None:
+        if (seen := self.tracker.rates) is not None:
             self.drift_hz_per_h = seen.common_hz_per_h if self.tracker.common_measured else None
             self.drift_split_hz_per_h = seen.split_hz_per_h
         if now is not model:
