@@ -101,7 +101,7 @@ class Bench:
     def measure(self, bias: np.ndarray, freqs: np.ndarray, path: Path) -> xr.Dataset:
         """Read ``path`` if it holds this measurement (resume), else measure and save it first."""
         per = points_per_frequency(self.device.capabilities)
-        n_acq = acquisitions(int(freqs.size), self.tones) * per
+        n_acq = self.acquisitions_for(int(freqs.size))
         changes = self._last_bias is None or not np.array_equal(self._last_bias, bias)
 
         def measure() -> xr.Dataset:
@@ -139,6 +139,11 @@ class Bench:
             self.first_s = low if self.first_s is None else min(self.first_s, low)
             self.last_s = high if self.last_s is None else max(self.last_s, high)
         return ds
+
+    def acquisitions_for(self, n_points: int) -> int:
+        """The acquisitions a sweep of ``n_points`` frequencies takes on this bench."""
+        per = points_per_frequency(self.device.capabilities)
+        return acquisitions(int(n_points), self.tones) * per
 
     def _check_clock(self, answer: xr.DataArray) -> None:
         """Refuse an answer whose stamps start before the previous answer's last one."""

@@ -21,7 +21,7 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.clock.bench import Bench
-from sysid_core.clock.benchtime import acquisitions, dwell, points_per_frequency, settle
+from sysid_core.clock.benchtime import dwell, settle
 from sysid_core.clock.budget import Budget, minutes, spent_s
 from sysid_core.device.capabilities import Capabilities
 from sysid_core.errors import BudgetSpentError
@@ -106,12 +106,9 @@ class RunClock:
         In acquisitions (a dwell of 1) while nothing states or estimates the dwell: a cost to
         compare with another's, not a time.
         """
-        (dwell_s, _), (settle_s, _) = self.rates()
-        per = points_per_frequency(self.caps)
-        n = acquisitions(int(n_points), self.bench.tones) * per
-        if dwell_s is None:
-            return float(n)
-        return n * dwell_s + ((settle_s or 0.0) if bias_change else 0.0)
+        n = self.bench.acquisitions_for(n_points)
+        cost = _cost_s(n, bias_change, self.rates())
+        return float(n) if cost is None else cost
 
     def spent_s(self, rates: tuple[Seconds, Seconds] | None = None) -> float | None:
         """The bench time spent so far (seconds; the clock's, else estimated), or None.
@@ -156,11 +153,8 @@ class RunClock:
         rates = self.rates()  # one estimate from the latest fit for the whole check
         if not self.binds(rates):
             return
-        (dwell_s, _), (settle_s, _) = rates
-        cost = None
-        if dwell_s is not None:
-            cost = n_acquisitions * dwell_s + ((settle_s or 0.0) if bias_changes else 0.0)
-        why = self.budget.refuse(self.spent_s(rates), cost, self.budget.limit_s(dwell_s))
+        cost = _cost_s(n_acquisitions, bias_changes, rates)
+        why = self.budget.refuse(self.spent_s(rates), cost, self.budget.limit_s(rates[0][0]))
         if why is not None:
             raise BudgetSpentError(why)
 
@@ -192,3 +186,14 @@ class RunClock:
             f"bench time about {minutes(spent)} min, estimated from the fitted Q (the budget of "
             f"{minutes(self.limit_s)} min binds a run on a clock or with a stated dwell)"
         )
+
+
+def _cost_s(n_acquisitions: int, bias_change: bool, rates: tuple[Seconds, Seconds]) -> float | None:
+    """Seconds of ``n_acquisitions`` at ``rates``, and the settling after a bias change.
+
+    None while nothing states or estimates the dwell.
+    """
+    (dwell_s, _), (settle_s, _) = rates
+    if dwell_s is None:
+        return None
+    return n_acquisitions * dwell_s + ((settle_s or 0.0) if bias_change else 0.0)
