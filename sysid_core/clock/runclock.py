@@ -110,6 +110,20 @@ class RunClock:
         cost = _cost_s(n, bias_change, self.rates())
         return float(n) if cost is None else cost
 
+    def afford(self, n_points: int) -> tuple[int, float]:
+        """How many more windows of ``n_points`` the run can measure, and the seconds of each.
+
+        Called during an iteration (before :meth:`Budget.ended` records it): the iterations the
+        cap leaves after this one, and no more windows than the budget left holds, each with
+        the settling after a bias change (:meth:`sweep_s`).
+        """
+        each = self.sweep_s(n_points)
+        by_cap = max(self.cap - len(self.budget.ends_s) - 1, 0)
+        spent = self.spent_s()
+        if spent is None or each <= 0:
+            return by_cap, each
+        return min(by_cap, max(int((self.limit_s - spent) // each), 0)), each
+
     def spent_s(self, rates: tuple[Seconds, Seconds] | None = None) -> float | None:
         """The bench time spent so far (seconds; the clock's, else estimated), or None.
 

@@ -38,13 +38,13 @@ from sysid_core.drift.policy import DriftPolicy
 from sysid_core.errors import ModelError
 from sysid_core.identification.anchor import anchor
 from sysid_core.identification.drift import OffsetDrift, offset_drift
-from sysid_core.identification.splittrend import SplitForecast
+from sysid_core.identification.splittrend import LAB_TREND, SplitForecast, variance_after
 from sysid_core.measure.evidence import WindowAssessment
 from sysid_core.measure.verification import Verification
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import split_vector_hz
 
-__all__ = ["NEAR_ACCEPTANCES", "SAMPLED_WITHIN", "Tracker", "blind"]
+__all__ = ["NEAR_ACCEPTANCES", "RICE_95", "SAMPLED_WITHIN", "Tracker", "blind"]
 
 #: Measures, saves and judges a sweep: ``(bias, frequencies, path, band)`` to ``(sweep, its
 #: single-bias model, evidence)`` (the protocol's :meth:`~sysid_core.run.protocols.Protocol.sweep`).
@@ -54,6 +54,9 @@ Sweep = Callable[
 
 #: Earlier windows anchor the model when their split was under this many acceptances.
 NEAR_ACCEPTANCES = 10.0
+#: The 95 % point of the length of a two-component vector of mean zero, in its components'
+#: standard deviations (the Rayleigh distribution's: ``√(-2 ln 0.05)``).
+RICE_95 = float(np.sqrt(-2.0 * np.log(0.05)))
 
 
 @dataclass
@@ -89,6 +92,8 @@ class Tracker:
     common_measured: bool = False
     #: The split the windows predicted at the next window by the last :meth:`now`, or None.
     forecast: SplitForecast | None = None
+    #: The split the windows predicted at the end of the latest by the last :meth:`end_split`.
+    at_end: SplitForecast | None = None
 
     @classmethod
     def of(
@@ -288,17 +293,59 @@ class Tracker:
         filter's variance; the bound is the Rice distribution's 95 % point. None unless
         ``sweep`` is the latest window kept and gives a split of its own.
         """
+        self.at_end = None
         if not self.windows or self.windows[-1] is not sweep or self.blind[-1]:
             return None
         chosen, _ = self.filtered()
         end = float(stamps(sweep).max())
         offset, found = windows_forecast(model, model, chosen, end)
+        self.at_end = found
         at_end = dataclasses.replace(model, K0=np.asarray(model.K0) + offset)
         bias = np.asarray(sweep.sel(electrode=list(model.electrodes))["bias"].values[0])
         mean = float(np.hypot(*split_vector_hz(at_end.M, at_end.stiffness(bias))))
         sigma = found.sigma_hz
         bound = float(rice.ppf(0.95, mean / sigma, scale=sigma)) if sigma > 0 else mean
         return bound, mean
+
+    def floor(self, windows: int, every_s: float) -> float | None:
+        """The best 95 % bound on the split that ``windows`` more windows could show (Hz).
+
+        After :meth:`end_split` (None without its forecast, or when the latest window measured
+        a split over ``near_hz``: its noise is not a degenerate window's): the Rice
+        distribution's 95 % point of a split vector of mean zero (every answer from now on
+        perfect) with the variance the
+        windows' filter would hold after ``windows`` more windows like the latest, one every
+        ``every_s`` seconds, at the end of the last
+        (:func:`~sysid_core.identification.splittrend.variance_after`). Over the acceptance, no
+        verification the run can still afford can show a tuning: the window's noise and the
+        drift set a floor.
+        """
+        if self.at_end is None or not self.windows or self.splits[-1] > self.near_hz:
+            return None  # a window far from degenerate modes measures a split of its own size
+        half = 0.5 * float(np.ptp(stamps(self.windows[-1])))
+        variance = variance_after(self.at_end, LAB_TREND, windows, every_s, half)
+        return RICE_95 * float(np.sqrt(variance))
+
+    def windows_to(self, limit_hz: float, every_s: float, most: int = 10_000) -> int | None:
+        """The fewest more windows whose :meth:`floor` is under ``limit_hz``, or None.
+
+        None without a floor, or when ``most`` windows would not do (the bound falls
+        monotonically with the windows, so a bisection finds the number).
+        """
+        floor = self.floor(0, every_s)
+        if floor is None or floor <= limit_hz:
+            return None if floor is None else 0
+        top = self.floor(most, every_s)
+        if top is None or top > limit_hz:
+            return None
+        lo, hi = 0, most  # floor(lo) > limit >= floor(hi)
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if (self.floor(mid, every_s) or 0.0) > limit_hz:
+                lo = mid
+            else:
+                hi = mid
+        return hi
 
 
 #: A fitted mode is measured by a window only if one of its points lies within this many of the

@@ -25,12 +25,13 @@ the slope (``q_r = 0``, finite ``σ_r``), the anchored model alone (``σ_m → 0
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["LAB_TREND", "SplitForecast", "TrendModel", "forecast"]
+__all__ = ["LAB_TREND", "SplitForecast", "TrendModel", "forecast", "variance_after"]
 
 #: The variance of a level nothing has measured yet, over the largest the data hold.
 _DIFFUSE = 1e6
@@ -101,6 +102,12 @@ class SplitForecast:
         Its variance per component ((Hz/s)²).
     windows : int
         How many windows were filtered.
+    covariance : ndarray (3, 3)
+        The filter's covariance after the latest window (level, rate, what the anchored model
+        misses), per component: what :func:`variance_after` carries on.
+    own_variance_hz2, anchored_variance_hz2 : float
+        The median variance of the windows' own splits and of their anchored ones (``inf``:
+        none measured): what a window like them would add.
     """
 
     vector_hz: np.ndarray
@@ -108,6 +115,9 @@ class SplitForecast:
     rate_hz_per_s: np.ndarray
     rate_variance: float
     windows: int
+    covariance: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((3, 3)))
+    own_variance_hz2: float = float("inf")
+    anchored_variance_hz2: float = float("inf")
 
     @property
     def split_hz(self) -> float:
@@ -170,7 +180,7 @@ def forecast(
         )
     if not (np.all(np.isfinite(t)) and np.all(np.isfinite(y)) and np.all(r >= 0)):
         raise ValueError("forecast: window times, vectors and variances must be finite")
-    own, both = np.array([1.0, 0.0, 0.0]), np.array([1.0, 0.0, 1.0])
+    own, both = _OWN, _BOTH
     rows = []
     for i in np.argsort(t, kind="stable"):
         rows.append((float(t[i]), own, y[i], float(r[i])))
@@ -192,19 +202,57 @@ def forecast(
     now = rows[0][0]
     for when, h, vector, variance in rows:
         x, p, now = *_predict(x, p, model, when - now), when
-        gain = p @ h / (h @ p @ h + max(variance, 1e-30))
-        x = x + np.outer(gain, vector - h @ x)
-        p = p - np.outer(gain, h @ p)
-        p = 0.5 * (p + p.T)
-    rate, rate_var = x[1].copy(), float(p[1, 1])
+        x, p = _update(x, p, h, vector, variance)
+    rate, rate_var, after = x[1].copy(), float(p[1, 1]), p.copy()
     x, p = _predict(x, p, model, max(float(at_s) - now, 0.0))
+    anchored = [v for when, h, _, v in rows if h is both]
     return SplitForecast(
         vector_hz=x[0],
         variance_hz2=float(p[0, 0]),
         rate_hz_per_s=rate,
         rate_variance=rate_var,
         windows=int(t.size),
+        covariance=after,
+        own_variance_hz2=float(np.median(r)),
+        anchored_variance_hz2=float(np.median(anchored)) if anchored else float("inf"),
     )
+
+
+def variance_after(
+    found: SplitForecast, model: TrendModel, windows: int, every_s: float, ahead_s: float
+) -> float:
+    """The variance per component of the split after ``windows`` more windows like the last.
+
+    The filter's covariance does not depend on what the windows measure, only on when and how
+    well: this carries ``found``'s on through ``windows`` windows, one every ``every_s``
+    seconds, each measuring the split with the windows' median variances (own and anchored),
+    and ``ahead_s`` seconds past the last (the end of a window, from its middle). What a run
+    can still show at best: the variance its verdict would hold if every answer from now on
+    were perfect.
+    """
+    x, p = np.zeros((3, 2)), np.asarray(found.covariance, dtype=float)
+    anchored = np.isfinite(found.anchored_variance_hz2) and np.isfinite(model.model_error_hz)
+    for _ in range(max(int(windows), 0)):
+        x, p = _predict(x, p, model, every_s)
+        x, p = _update(x, p, _OWN, np.zeros(2), found.own_variance_hz2)
+        if anchored:
+            x, p = _update(x, p, _BOTH, np.zeros(2), found.anchored_variance_hz2)
+    return float(_predict(x, p, model, max(ahead_s, 0.0))[1][0, 0])
+
+
+#: What a window's own split measures (the level) and its anchored one (the level and what the
+#: anchored model misses).
+_OWN, _BOTH = np.array([1.0, 0.0, 0.0]), np.array([1.0, 0.0, 1.0])
+
+
+def _update(
+    x: np.ndarray, p: np.ndarray, h: np.ndarray, vector: np.ndarray, variance: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The state and covariance after one measurement ``h · x = vector`` of ``variance``."""
+    gain = p @ h / (h @ p @ h + max(variance, 1e-30))
+    x = x + np.outer(gain, vector - h @ x)
+    p = p - np.outer(gain, h @ p)
+    return x, 0.5 * (p + p.T)
 
 
 def _predict(

@@ -15,9 +15,8 @@
 
 The run converges when a verification is *verified* and every goal of the criterion is met (the
 split under ``acceptance_hz``; for ``target``, also the frequency error). Otherwise it goes on
-from the new bias until the bench-time budget is spent (``[tuning] max_bench_minutes``: no
-measurement starts that would end past it, :mod:`sysid_core.clock.budget`) or ``max_iterations``
-(a cap) is reached.
+until a verdict stops it (:mod:`sysid_core.verdict.judgement`), the bench-time budget is spent
+(``[tuning] max_bench_minutes``, :mod:`sysid_core.clock.budget`) or ``max_iterations`` is reached.
 
 Everything is checked before the first measurement: the configuration, every plugin (built
 here), the device's protocol attributes, the bias limits, the sweeps and the first design. Every
@@ -244,7 +243,8 @@ class TuningRun:
             if self.tracking and self.tracker is not None:
                 self.tracker.learned(ver)
             goals, converged, stop = verdict(
-                ver, now, self.criterion, self.fitter, cfg.acceptance_hz, cfg.aim, self.tracker
+                *(ver, now, self.criterion, self.fitter, cfg.acceptance_hz, cfg.aim, self.tracker),
+                self.clock.afford(int(ver.sweep.sizes["frequency"])),
             )
             if stop is not None:
                 self.notes.append(f"iteration {it}: {stop}")
@@ -263,6 +263,8 @@ class TuningRun:
                 drift=(self.drift_hz_per_h, self.drift_split_hz_per_h),
                 budget_s=self.clock.limit_s,
             )
+            if stop is not None:  # a verdict's reason to stop, like the budget's
+                summary = summary.stopped_by(stop, self.notes, spent, self.bench)
             write_json(self.out / "summary.json", summary.as_dict())
             self.say(f"iteration {it}: {ver.describe()} ({fit_time:.2f} s to identify)")
             self.say(f"iteration {it}: {self.clock.describe(spent)}")
@@ -329,13 +331,8 @@ class TuningRun:
         self, it: int, model: FittedModel, bias: np.ndarray, folder: Path, seen: tuple[Least, Least]
     ) -> Answer:
         """Step 3 at ``bias``, told the least and the latest split verified (``seen``)."""
-        space = BiasSpace(
-            self.electrodes,
-            self.space.tuned,
-            bias,
-            self.space.limits,
-            self.space.structure_potential,
-        )
+        sp = self.space
+        space = BiasSpace(self.electrodes, sp.tuned, bias, sp.limits, sp.structure_potential)
 
         def every_sweep() -> FittedModel | None:
             ds = self.protocol.every_sweep(it, bias)

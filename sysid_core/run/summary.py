@@ -146,8 +146,8 @@ class RunSummary:
     bench_time_source: str | None = None
     drift_common_hz_per_h: float | None = None
     drift_split_hz_per_h: float | None = None
-    #: Why the run stopped before meeting its goals with iterations to spare (the bench-time
-    #: budget, a drift that outruns the verification), or None.
+    #: Why the run stopped before meeting its goals (the bench-time budget, a drift that
+    #: outruns the verification, the floor a bench sets at the last iteration), or None.
     stopped: str | None = None
     #: The bench-time budget (``[tuning] max_bench_minutes``, seconds).
     bench_budget_s: float | None = None

@@ -29,6 +29,13 @@ gives no split of its own) two goals stand for it, and join the criterion's
   (:func:`outpaced`; a 2.1 kHz gyro in the uncontrolled lab: measured 0.30 mHz, drift term
   2.17 mHz, and the four iterations it went on drifted it to 8.1 mHz).
 
+A tracked run whose last window (the cap's or the budget's) leaves the goal unmet says whether
+the bench set a floor (:func:`floored`): when even a perfect answer could not have been shown
+under the acceptance by the windows measured, the windows' noise and the drift, not the answer,
+limit the run; it says how well each window measures the split, how fast the split moves, and
+how many more windows like these would show the acceptance (a 22 kHz gyro of bandwidth 0.45 Hz
+at 60 dB: each 16-point window measures its split to about ±8 mHz at 95 %).
+
 A third applies on a drifting bench without the forecast: ``split, aiming at X of the
 acceptance`` <= ``aim`` × acceptance (:func:`aim_fraction`; ``[tuning] aim``, by default
 :data:`DRIFTING_AIM` when the run tracks the drift, else 1). A split measured just under the
@@ -49,6 +56,8 @@ structures are fitted plainly (not refitted with weights) so that their residual
 
 from __future__ import annotations
 
+import numpy as np
+
 from sysid_core.clock.runclock import stamps_span_s
 from sysid_core.drift.tracker import Tracker
 from sysid_core.identification.drift import offset_drift
@@ -64,7 +73,9 @@ __all__ = [
     "END_GOAL",
     "RESOLVE_FACTOR",
     "TWIN_FACTOR",
+    "WINDOWS_SEARCHED",
     "aim_fraction",
+    "floored",
     "holds_s",
     "honest_goals",
     "outpaced",
@@ -79,6 +90,8 @@ DRIFT_GOAL = "split at the end (drift)"
 
 #: A verified split counts only when its 95 % upper bound is under this many acceptances.
 RESOLVE_FACTOR = 2.0
+#: How many more windows :func:`floored` looks through for the number that would show a tuning.
+WINDOWS_SEARCHED = 10_000
 #: A run that tracks the drift stops at a verified split under this fraction of the acceptance.
 DRIFTING_AIM = 0.5
 #: The twin structure fits a window this many times better (residual sum of squares): the
@@ -190,6 +203,43 @@ def outpaced(
     )
 
 
+def floored(
+    tracker: Tracker, afford: tuple[int, float], limit_hz: float, end: tuple[float, float]
+) -> str | None:
+    """Why the run's last window could not show a tuning at any answer, or None.
+
+    ``afford``: how many more windows the budget and the cap leave, and the seconds from one to
+    the next; ``limit_hz``: the goal's (the acceptance times the aim); ``end``: the split at the
+    end of the latest window by the forecast (its 95 % bound and mean). A reason only at the
+    run's last window (none left) whose goal is not met, when even a perfect answer would not
+    have met it (:meth:`~sysid_core.drift.tracker.Tracker.floor` over ``limit_hz``): the noise
+    of the windows and the drift, not the answer, set the floor. It says how many more windows
+    like these would show ``limit_hz`` (:meth:`~sysid_core.drift.tracker.Tracker.windows_to`).
+    """
+    windows, every_s = afford
+    best = tracker.floor(0, every_s)
+    found = tracker.at_end
+    if windows > 0 or best is None or found is None or best <= limit_hz or end[0] <= limit_hz:
+        return None
+    window = 1.96 * float(np.sqrt(found.own_variance_hz2))
+    moving = float(np.hypot(*found.rate_hz_per_s)) * 6e4
+    spread = 1.96 * float(np.sqrt(found.rate_variance)) * 6e4
+    needed = tracker.windows_to(limit_hz, every_s, WINDOWS_SEARCHED)
+    more = (
+        f"no number of windows up to {WINDOWS_SEARCHED} would show it under {limit_hz * 1e3:.3g} "
+        "mHz"
+        if needed is None
+        else f"about {needed} more windows like these ({needed * every_s / 60:.3g} min of bench "
+        f"time) would show it under {limit_hz * 1e3:.3g} mHz"
+    )
+    return (
+        f"the bench sets a floor: each window measures the split to ±{window * 1e3:.2g} mHz "
+        f"(95 %) and the windows see it moving {moving:.2g} ± {spread:.2g} mHz/min, so even a "
+        f"perfect answer could be shown at best under {best * 1e3:.3g} mHz at 95 %; {more} "
+        f"(the split at the end is {end[1] * 1e3:.3g} mHz by the forecast)"
+    )
+
+
 def verdict(
     ver: Verification,
     model: FittedModel,
@@ -198,6 +248,7 @@ def verdict(
     acceptance_hz: float,
     aim: float | None = None,
     tracker: Tracker | None = None,
+    afford: tuple[int, float] | None = None,
 ) -> tuple[list[Goal], bool, str | None]:
     """A verification's goals, whether the run converged, and why it stops unconverged (or None).
 
@@ -205,7 +256,8 @@ def verdict(
     ``tracker``'s forecast of the split at the window's end, when it has one, that forecast at
     ``aim`` (``[tuning] aim``, 1 unset) times the acceptance; else the window's own goals at
     :func:`aim_fraction`. If they are all met, the :func:`twin_goal` too; if only the drift's
-    is not, :func:`outpaced`.
+    is not, :func:`outpaced`; with the forecast and ``afford`` (the windows the run can still
+    measure and the seconds between them), :func:`floored`.
     """
     if not ver.verified or ver.frequencies_hz is None or ver.split_hz is None:
         return [], False, None
@@ -219,6 +271,8 @@ def verdict(
         goals.append(twin)
         converged = twin.met
     stop = None if converged else outpaced(goals, ver.split_hz, acceptance_hz, sweep_half_s(ver))
+    if not converged and stop is None and end is not None and tracker and afford is not None:
+        stop = floored(tracker, afford, fraction * acceptance_hz, end)
     return goals, converged, stop
 
 
