@@ -313,12 +313,10 @@ class Tracker:
         After :meth:`end_split` (None without its forecast, or when the latest window measured
         a split over ``near_hz``: its noise is not a degenerate window's): the Rice
         distribution's 95 % point of a split vector of mean zero (every answer from now on
-        perfect) with the variance the
-        windows' filter would hold after ``windows`` more windows like the latest, one every
-        ``every_s`` seconds, at the end of the last
+        perfect) with the variance the windows' filter would hold after ``windows`` more windows
+        like the latest, one every ``every_s`` seconds, at the end of the last
         (:func:`~sysid_core.identification.splittrend.variance_after`). Over the acceptance, no
-        verification the run can still afford can show a tuning: the window's noise and the
-        drift set a floor.
+        such windows can show a tuning: their noise and the drift set a floor.
         """
         if self.at_end is None or not self.windows or self.splits[-1] > self.near_hz:
             return None  # a window far from degenerate modes measures a split of its own size
