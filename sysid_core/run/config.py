@@ -129,7 +129,7 @@ class TuningConfig(_Strict):
     ``max_bench_minutes`` bounds the run by the bench clock (the device's time stamps, else the
     estimated bench time): no measurement starts that would end past it; unset, it is the
     larger of an hour and 1200 dwells of the gyro (:mod:`sysid_core.clock.budget`).
-    ``max_iterations`` only caps the iterations (default 24); no verdict depends on it.
+    ``max_iterations`` only caps the iterations (default 300); no verdict depends on it.
     """
 
     criterion: str = "degenerate"

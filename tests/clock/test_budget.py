@@ -70,7 +70,7 @@ def test_the_budget_counts_iterations_by_their_cost_not_by_the_cap() -> None:
 
 def test_the_cap_is_the_configured_one_else_its_default() -> None:
     assert Budget(None, iterations=7).cap == 7
-    assert Budget(None).cap == DEFAULT_MAX_ITERATIONS == 24
+    assert Budget(None).cap == DEFAULT_MAX_ITERATIONS == 300
 
 
 def test_the_default_budget_is_an_hour_or_the_gyros_own_time() -> None:
