@@ -159,11 +159,12 @@ def test_no_floor_far_from_degenerate_modes() -> None:
 
 
 def test_a_run_ends_at_its_floor_and_says_why(tmp_path: Path) -> None:
-    """A 22 kHz random gyro (bandwidth 0.45 Hz) at 60 dB on a bench with a clock but no drift.
+    """A 22 kHz random gyro (bandwidths 0.37 and 2.2 Hz) at 60 dB, a bench with a clock, no drift.
 
-    Each 16-point window measures its split to about ±8 mHz at 95 % (30 windows at its tuned
-    code: σ = 4.1 mHz per component), so 12 iterations cannot show 2 mHz whatever the answer. The run ends saying so in ``stopped``: the floor its windows set and
-    how many more would show the acceptance; the true split at the end is under that floor.
+    Each 16-point window measures its split to about ±9 mHz at 95 % (30 windows at its tuned
+    code: σ = 4.1-4.8 mHz per component), so 12 iterations cannot show 2 mHz whatever the
+    answer. The run ends saying so in ``stopped``: the floor its windows set and how many more
+    would show the acceptance; the true split at the end is under that floor.
     """
     seed = 205
     bench = {"clock": True, "seed": seed, "tones": 8, "temperature_ramp_k_per_h": 0.0}
