@@ -33,8 +33,8 @@ A tracked run whose last window (the cap's or the budget's) leaves the goal unme
 the bench set a floor (:func:`floored`): when even a perfect answer could not have been shown
 under the acceptance by the windows measured, the windows' noise and the drift, not the answer,
 limit the run; it says how well each window measures the split, how fast the split moves, and
-how many more windows like these would show the acceptance (a 22 kHz gyro of bandwidth 0.45 Hz
-at 60 dB: each 16-point window measures its split to about ±8 mHz at 95 %).
+how many more windows like these would show the acceptance (a 22 kHz gyro of bandwidths 0.37
+and 2.2 Hz at 60 dB: each 16-point window measures its split to about ±9 mHz at 95 %).
 
 A third applies on a drifting bench without the forecast: ``split, aiming at X of the
 acceptance`` <= ``aim`` × acceptance (:func:`aim_fraction`; ``[tuning] aim``, by default
