@@ -6,7 +6,8 @@ Each verification window near degenerate modes measures the split twice: its own
 noisy, but missing what those miss near degenerate modes). :func:`windows_forecast` takes both
 as split vectors against the model anchored on the latest window and filters them in time
 (:func:`sysid_core.identification.splittrend.forecast`, the model of
-:data:`~sysid_core.identification.splittrend.LAB_TREND`); the prediction at the next window is
+:data:`~sysid_core.identification.splittrend.LAB_TREND` with the wander and scatter the windows
+themselves show, :mod:`sysid_core.identification.trendnoise`); the prediction at the next window is
 the split the answer is solved for. :class:`sysid_core.drift.tracker.Tracker` applies it.
 """
 
@@ -22,6 +23,7 @@ from sysid_core.clock.runclock import stamps
 from sysid_core.conic.program import SYM_BASIS
 from sysid_core.identification.anchor import Anchor, anchor, split_offset
 from sysid_core.identification.splittrend import LAB_TREND, SplitForecast, TrendModel, forecast
+from sysid_core.identification.trendnoise import fitted_trend
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import mass_roots
 from sysid_core.tuning.confidence import split_interval
@@ -47,8 +49,10 @@ def windows_forecast(
 
     ``windows``: sweeps and their own single-bias models, oldest first. Each window measures
     the split twice, each with its fit's variance: its own split (from its split interval)
-    and the run's model anchored on it alone (from the anchor's least squares). The offset is
-    traceless: ``moved``'s mean frequency stays.
+    and the run's model anchored on it alone (from the anchor's least squares). The filter's
+    model is ``trend`` with the wander and variance scale the windows support
+    (:func:`~sysid_core.identification.trendnoise.fitted_trend`). The offset is traceless:
+    ``moved``'s mean frequency stays.
 
     Raises
     ------
@@ -72,15 +76,9 @@ def windows_forecast(
         anchored_var.append(
             np.inf if cov is None else max(0.5 * np.trace(columns @ cov @ columns.T), _FLOOR_HZ2)
         )
-    found = forecast(
-        times,
-        np.asarray(own),
-        variances,
-        at,
-        trend,
-        anchored_hz=np.asarray(anchored),
-        anchored_variances=anchored_var,
-    )
+    measured = (times, np.asarray(own), variances)
+    fitted = fitted_trend(*measured, trend, np.asarray(anchored), anchored_var)
+    found = forecast(*measured, at, fitted, np.asarray(anchored), anchored_var)
     return _offset_to(base, moved, found.vector_hz, scale), found
 
 

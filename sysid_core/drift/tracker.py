@@ -38,7 +38,11 @@ from sysid_core.drift.policy import DriftPolicy
 from sysid_core.errors import ModelError
 from sysid_core.identification.anchor import anchor
 from sysid_core.identification.drift import OffsetDrift, offset_drift
-from sysid_core.identification.splittrend import LAB_TREND, SplitForecast, variance_after
+from sysid_core.identification.splittrend import (
+    SplitForecast,
+    TrendModel,
+    variance_after,
+)
 from sysid_core.measure.evidence import WindowAssessment
 from sysid_core.measure.verification import Verification
 from sysid_core.model.fitted import FittedModel
@@ -251,7 +255,7 @@ class Tracker:
             own = (
                 f"; {self.forecast.windows} window(s) predict {at_latest} at the latest bias "
                 f"then, the split moving {np.hypot(*self.forecast.rate_hz_per_s) * 6e4:.2g} "
-                "mHz/min"
+                f"mHz/min{noise_said(self.forecast.trend)}"
             )
         if refused:
             own += (
@@ -321,7 +325,7 @@ class Tracker:
         if self.at_end is None or not self.windows or self.splits[-1] > self.near_hz:
             return None  # a window far from degenerate modes measures a split of its own size
         half = 0.5 * float(np.ptp(stamps(self.windows[-1])))
-        variance = variance_after(self.at_end, LAB_TREND, windows, every_s, half)
+        variance = variance_after(self.at_end, self.at_end.trend, windows, every_s, half)
         return RICE_95 * float(np.sqrt(variance))
 
     def windows_to(self, limit_hz: float, every_s: float, most: int = 10_000) -> int | None:
@@ -344,6 +348,16 @@ class Tracker:
             else:
                 hi = mid
         return hi
+
+
+def noise_said(trend: TrendModel) -> str:
+    """What the windows showed beyond the stated trend, in words ("" if nothing)."""
+    if trend.window_variance_scale <= 1.0:
+        return ""
+    return (
+        f" (the windows scattering {np.sqrt(trend.window_variance_scale):.2g} times what "
+        "their fits state)"
+    )
 
 
 #: A fitted mode is measured by a window only if one of its points lies within this many of the

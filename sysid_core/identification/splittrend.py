@@ -31,7 +31,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["LAB_TREND", "SplitForecast", "TrendModel", "forecast", "variance_after"]
+__all__ = [
+    "LAB_TREND",
+    "SplitForecast",
+    "TrendModel",
+    "forecast",
+    "log_likelihood",
+    "variance_after",
+]
 
 #: The variance of a level nothing has measured yet, over the largest the data hold.
 _DIFFUSE = 1e6
@@ -52,19 +59,28 @@ class TrendModel:
     model_error_hz : float
         ``σ_m``, what a model anchored on a window misses of that window's split (per
         component); ``inf``: the anchored model measures nothing.
+    window_variance_scale : float, default 1
+        ``λ``, how many times the windows' fits understate their variance: every window's
+        variance is taken ``λ`` times larger.
     """
 
     rate_hz_per_s: float
     rate_change_s: float
     wander_hz2_per_s: float
     model_error_hz: float
+    window_variance_scale: float = 1.0
 
     def __post_init__(self) -> None:
-        """Refuse a negative or NaN parameter."""
+        """Refuse a negative or NaN parameter, or a variance scale under one."""
         for name in ("rate_hz_per_s", "rate_change_s", "wander_hz2_per_s", "model_error_hz"):
             value = getattr(self, name)
             if not value >= 0:  # NaN too
                 raise ValueError(f"TrendModel.{name} must be >= 0, got {value!r}")
+        if not 1.0 <= self.window_variance_scale < np.inf:
+            raise ValueError(
+                "TrendModel.window_variance_scale must be finite and >= 1, got "
+                f"{self.window_variance_scale!r}"
+            )
 
     def transition(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """The state transition ``F`` and process covariance ``Q`` over ``dt`` seconds."""
@@ -80,7 +96,8 @@ class TrendModel:
 #: fast gyros, where charging of tens of mV/h acts through sensitivities of tens of mHz/V,
 #: is 0.3-3 mHz/min), constant over a run (letting it change in 4 h predicted worse), no wander
 #: beyond it, and an anchored model that misses the split by 2 mHz (what a model's mass,
-#: damping and polynomial miss near degenerate modes: 1-3 mHz).
+#: damping and polynomial miss near degenerate modes: 1-3 mHz). Where a run's windows reject
+#: the windows' variances, :mod:`sysid_core.identification.trendnoise` scales them.
 LAB_TREND = TrendModel(
     rate_hz_per_s=3e-5, rate_change_s=float("inf"), wander_hz2_per_s=0.0, model_error_hz=2e-3
 )
@@ -107,7 +124,9 @@ class SplitForecast:
         misses), per component: what :func:`variance_after` carries on.
     own_variance_hz2, anchored_variance_hz2 : float
         The median variance of the windows' own splits and of their anchored ones (``inf``:
-        none measured): what a window like them would add.
+        none measured), scaled by the trend's ``λ``: what a window like them would add.
+    trend : TrendModel
+        The model the windows were filtered with.
     """
 
     vector_hz: np.ndarray
@@ -118,6 +137,7 @@ class SplitForecast:
     covariance: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((3, 3)))
     own_variance_hz2: float = float("inf")
     anchored_variance_hz2: float = float("inf")
+    trend: TrendModel = LAB_TREND
 
     @property
     def split_hz(self) -> float:
@@ -170,6 +190,60 @@ def forecast(
     ValueError
         With no window, shapes that do not agree, or a time or variance that is not finite.
     """
+    rows = _rows(times_s, vectors_hz, variances_hz2, model, anchored_hz, anchored_variances)
+    scale = model.window_variance_scale
+    x, p, now, _ = _filter(rows, model)
+    rate, rate_var, after = x[1].copy(), float(p[1, 1]), p.copy()
+    x, p = _predict(x, p, model, max(float(at_s) - now, 0.0))
+    own = [v for _, h, _, v in rows if h is _OWN]
+    anchored = [v for _, h, _, v in rows if h is _BOTH]
+    return SplitForecast(
+        vector_hz=x[0],
+        variance_hz2=float(p[0, 0]),
+        rate_hz_per_s=rate,
+        rate_variance=rate_var,
+        windows=len(own),
+        covariance=after,
+        own_variance_hz2=scale * float(np.median(own)),
+        anchored_variance_hz2=scale * float(np.median(anchored)) if anchored else float("inf"),
+        trend=model,
+    )
+
+
+def log_likelihood(
+    times_s: Sequence[float],
+    vectors_hz: np.ndarray,
+    variances_hz2: Sequence[float],
+    model: TrendModel,
+    window_variance_scale: np.ndarray,
+    anchored_hz: np.ndarray | None = None,
+    anchored_variances: Sequence[float] | None = None,
+) -> np.ndarray:
+    """The log-likelihood of the windows under ``model`` with each variance scale ``λ``.
+
+    The likelihood of the filter's innovations (the errors with which it predicts each window
+    before reading it), for every ``window_variance_scale`` (an array) in place of ``model``'s;
+    the other arguments are :func:`forecast`'s. Differences between scales are what a
+    maximum-likelihood choice of the scale reads.
+    """
+    rows = _rows(times_s, vectors_hz, variances_hz2, model, anchored_hz, anchored_variances)
+    return _filter(rows, model, np.asarray(window_variance_scale, dtype=float))[3]
+
+
+#: One measurement of the filter: its time, what it measures of the state (:data:`_OWN` or
+#: :data:`_BOTH`), the split vector it reads and its variance as the window's fit states it.
+Row = tuple[float, np.ndarray, np.ndarray, float]
+
+
+def _rows(
+    times_s: Sequence[float],
+    vectors_hz: np.ndarray,
+    variances_hz2: Sequence[float],
+    model: TrendModel,
+    anchored_hz: np.ndarray | None,
+    anchored_variances: Sequence[float] | None,
+) -> list[Row]:
+    """The windows' measurements in time order (see :func:`forecast` for the arguments)."""
     t = np.asarray(times_s, dtype=float)
     y = np.asarray(vectors_hz, dtype=float).reshape(-1, 2)
     r = np.asarray(variances_hz2, dtype=float)
@@ -180,42 +254,48 @@ def forecast(
         )
     if not (np.all(np.isfinite(t)) and np.all(np.isfinite(y)) and np.all(r >= 0)):
         raise ValueError("forecast: window times, vectors and variances must be finite")
-    own, both = _OWN, _BOTH
-    rows = []
+    rows: list[Row] = []
     for i in np.argsort(t, kind="stable"):
-        rows.append((float(t[i]), own, y[i], float(r[i])))
+        rows.append((float(t[i]), _OWN, y[i], float(r[i])))
         if anchored_hz is not None and np.isfinite(model.model_error_hz):
             a = np.asarray(anchored_hz, dtype=float).reshape(-1, 2)[i]
             va = float(r[i] if anchored_variances is None else anchored_variances[i])
             if np.isfinite(va):
-                rows.append((float(t[i]), both, a, va))
+                rows.append((float(t[i]), _BOTH, a, va))
+    return rows
+
+
+def _filter(
+    rows: list[Row], model: TrendModel, scale: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+    """The state and covariance after the last row, its time, and the rows' log-likelihood.
+
+    With ``scale`` (an array), one filter for each of its values in place of ``model``'s
+    ``λ``, run together: the state gains its shape in front. The log-likelihood is that of the
+    innovations (each row's two components alike and independent), the first row's included:
+    it is the same for every scale.
+    """
+    scale = np.asarray(model.window_variance_scale if scale is None else scale, dtype=float)
+    shape = scale.shape
     # state rows: the level, its rate, what the anchored model misses; columns: the components
-    x = np.zeros((3, 2))
+    x = np.zeros((*shape, 3, 2))
     # "nothing known" as a variance a million times any the data hold: far wider than them,
     # not so wide that the first update loses their digits
-    scale = max(float(np.max(r)), float(np.max(y**2)), 1e-30)
+    own = [(y, v) for _, h, y, v in rows if h is _OWN]
+    big = max(max(v for _, v in own), max(float(np.max(y**2)) for y, _ in own), 1e-30)
     if np.isfinite(model.model_error_hz):
-        scale = max(scale, model.model_error_hz**2)
-    diffuse = _DIFFUSE * scale
+        big = max(big, model.model_error_hz**2)
+    diffuse = _DIFFUSE * big * float(np.max(scale))
     m2 = model.model_error_hz**2 if np.isfinite(model.model_error_hz) else diffuse
-    p = np.diag([diffuse, model.rate_hz_per_s**2, m2])
+    p = np.broadcast_to(np.diag([diffuse, model.rate_hz_per_s**2, m2]), (*shape, 3, 3)).copy()
+    loglik = np.zeros(shape)
     now = rows[0][0]
     for when, h, vector, variance in rows:
-        x, p, now = *_predict(x, p, model, when - now), when
-        x, p = _update(x, p, h, vector, variance)
-    rate, rate_var, after = x[1].copy(), float(p[1, 1]), p.copy()
-    x, p = _predict(x, p, model, max(float(at_s) - now, 0.0))
-    anchored = [v for when, h, _, v in rows if h is both]
-    return SplitForecast(
-        vector_hz=x[0],
-        variance_hz2=float(p[0, 0]),
-        rate_hz_per_s=rate,
-        rate_variance=rate_var,
-        windows=int(t.size),
-        covariance=after,
-        own_variance_hz2=float(np.median(r)),
-        anchored_variance_hz2=float(np.median(anchored)) if anchored else float("inf"),
-    )
+        x, p = _predict(x, p, model, when - now)
+        now = when
+        x, p, innovation, s = _update(x, p, h, vector, scale * variance)
+        loglik -= np.log(2 * np.pi * s) + 0.5 * np.sum(innovation**2, axis=-1) / s
+    return x, p, now, loglik
 
 
 def variance_after(
@@ -234,9 +314,9 @@ def variance_after(
     anchored = np.isfinite(found.anchored_variance_hz2) and np.isfinite(model.model_error_hz)
     for _ in range(max(int(windows), 0)):
         x, p = _predict(x, p, model, every_s)
-        x, p = _update(x, p, _OWN, np.zeros(2), found.own_variance_hz2)
+        x, p, _, _ = _update(x, p, _OWN, np.zeros(2), found.own_variance_hz2)
         if anchored:
-            x, p = _update(x, p, _BOTH, np.zeros(2), found.anchored_variance_hz2)
+            x, p, _, _ = _update(x, p, _BOTH, np.zeros(2), found.anchored_variance_hz2)
     return float(_predict(x, p, model, max(ahead_s, 0.0))[1][0, 0])
 
 
@@ -246,13 +326,20 @@ _OWN, _BOTH = np.array([1.0, 0.0, 0.0]), np.array([1.0, 0.0, 1.0])
 
 
 def _update(
-    x: np.ndarray, p: np.ndarray, h: np.ndarray, vector: np.ndarray, variance: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """The state and covariance after one measurement ``h · x = vector`` of ``variance``."""
-    gain = p @ h / (h @ p @ h + max(variance, 1e-30))
-    x = x + np.outer(gain, vector - h @ x)
-    p = p - np.outer(gain, h @ p)
-    return x, 0.5 * (p + p.T)
+    x: np.ndarray, p: np.ndarray, h: np.ndarray, vector: np.ndarray, variance: float | np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The state after one measurement ``h · x = vector`` of ``variance``.
+
+    Returns the state, its covariance, the innovation and its variance; leading axes of ``x``,
+    ``p`` and ``variance`` run together.
+    """
+    ph = p @ h
+    s = ph @ h + np.maximum(variance, 1e-30)
+    gain = ph / s[..., None]
+    innovation = vector - h @ x
+    x = x + gain[..., :, None] * innovation[..., None, :]
+    p = p - gain[..., :, None] * ph[..., None, :]
+    return x, 0.5 * (p + np.swapaxes(p, -1, -2)), innovation, s
 
 
 def _predict(
