@@ -6,9 +6,9 @@ Each verification window near degenerate modes measures the split twice: its own
 noisy, but missing what those miss near degenerate modes). :func:`windows_forecast` takes both
 as split vectors against the model anchored on the latest window and filters them in time
 (:func:`sysid_core.identification.splittrend.forecast`, the model of
-:data:`~sysid_core.identification.splittrend.LAB_TREND` with the wander and scatter the windows
-themselves show, :mod:`sysid_core.identification.trendnoise`); the prediction at the next window is
-the split the answer is solved for. :class:`sysid_core.drift.tracker.Tracker` applies it.
+:data:`~sysid_core.identification.splittrend.LAB_TREND`, its windows' variances scaled by what
+they scatter: :mod:`sysid_core.identification.trendnoise`); the prediction at the next window
+is the split the answer is solved for. :class:`sysid_core.drift.tracker.Tracker` applies it.
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ def windows_forecast(
     ``windows``: sweeps and their own single-bias models, oldest first. Each window measures
     the split twice, each with its fit's variance: its own split (from its split interval)
     and the run's model anchored on it alone (from the anchor's least squares). The filter's
-    model is ``trend`` with the wander and variance scale the windows support
+    model is ``trend`` with the variance scale the windows support
     (:func:`~sysid_core.identification.trendnoise.fitted_trend`). The offset is traceless:
     ``moved``'s mean frequency stays.
 

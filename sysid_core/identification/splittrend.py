@@ -97,8 +97,8 @@ class TrendModel:
 #: fast gyros, where charging of tens of mV/h acts through sensitivities of tens of mHz/V,
 #: is 0.3-3 mHz/min), constant over a run (letting it change in 4 h predicted worse), no wander
 #: beyond it, and an anchored model that misses the split by 2 mHz (what a model's mass,
-#: damping and polynomial miss near degenerate modes: 1-3 mHz). Where a run's windows reject
-#: the windows' variances, :mod:`sysid_core.identification.trendnoise` scales them.
+#: damping and polynomial miss near degenerate modes: 1-3 mHz). Where a run's windows scatter
+#: more than their fits state, :mod:`sysid_core.identification.trendnoise` scales their variances.
 LAB_TREND = TrendModel(
     rate_hz_per_s=3e-5, rate_change_s=float("inf"), wander_hz2_per_s=0.0, model_error_hz=2e-3
 )
