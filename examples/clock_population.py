@@ -126,6 +126,7 @@ class Population:
     draw: int = 0
     electrodes: int = 2
     iterations: int = 4
+    verbose: bool = False
 
     def config(self, device: Any, options: dict, start: list[float]) -> dict:
         """The run's configuration for ``device`` from ``start``."""
@@ -165,7 +166,8 @@ def one(pop: Population, seed: int, from_model: bool = False) -> dict:
     folder = pop.out / f"run{seed}"
     shutil.rmtree(folder, ignore_errors=True)
     try:
-        result = tune(config, folder, plots=False, device=recorder, from_model=prior)
+        say = (lambda line: print(line, file=sys.stderr)) if pop.verbose else None
+        result = tune(config, folder, plots=False, device=recorder, from_model=prior, progress=say)
     except SysidError as exc:
         return {"seed": seed, "error": str(exc)}
     answers = [r.verified_bias for r in result.history]
@@ -175,6 +177,8 @@ def one(pop: Population, seed: int, from_model: bool = False) -> dict:
             to_target = t
             break
     clock = float(device.time_s)
+    summary = json.loads((folder / "summary.json").read_text())
+    dwell = float(getattr(device, "dwell_s", None) or np.nan)
     return {
         "seed": seed,
         "start": start,
@@ -188,6 +192,9 @@ def one(pop: Population, seed: int, from_model: bool = False) -> dict:
         "time_to_target_s": to_target,
         "reported_bench_time_s": result.bench_time_s,
         "bench_time_source": result.bench_time_source,
+        "dwell_s": dwell,
+        "bench_time_by_purpose_s": summary.get("bench_time_by_purpose_s"),
+        "bench_time_split_s": summary.get("bench_time_split_s"),
     }
 
 
@@ -230,6 +237,21 @@ def row(label: str, records: list[dict]) -> str:
     )
 
 
+def dwells(records: list[dict]) -> str:
+    """Where the clock went, in the gyro's own time: medians of dwells (bench clock / dwell_s)."""
+    ok = [r for r in records if "error" not in r and np.isfinite(r.get("dwell_s", np.nan))]
+    if not ok:
+        return "dwells: no run states its dwell"
+    total = np.median([r["clock_s"] / r["dwell_s"] for r in ok])
+    parts = [f"dwells (bench clock / dwell_s), medians: {total:.0f} in all"]
+    for key in ("bench_time_by_purpose_s", "bench_time_split_s"):
+        names = sorted({k for r in ok for k in (r.get(key) or {})})
+        for name in names:
+            v = [(r.get(key) or {}).get(name, 0.0) / r["dwell_s"] for r in ok]
+            parts.append(f"{name} {np.median(v):.1f}")
+    return "; ".join(parts)
+
+
 def main() -> None:
     """Parse the arguments, tune every gyro, print the row."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -255,6 +277,9 @@ def main() -> None:
         help="tune with the first N electrodes (B1, B2, ...; a gyro with fewer uses all it has)",
     )
     parser.add_argument("--iterations", type=int, default=4, help="max_iterations (4)")
+    parser.add_argument(
+        "--verbose", action="store_true", help="every run's progress lines on stderr"
+    )
     parser.add_argument("--label", default=None)
     parser.add_argument("--out", type=Path, default=Path("runs/clock-population"))
     parser.add_argument("--table", nargs="+", type=Path, help="rows of earlier outputs")
@@ -271,6 +296,7 @@ def main() -> None:
         for folder in args.table:
             lines = (folder / "runs.jsonl").read_text().splitlines()
             print(row(folder.name, [json.loads(line) for line in lines]))
+            print(dwells([json.loads(line) for line in lines]))
         return
     args.out.mkdir(parents=True, exist_ok=True)
     tables = {}
@@ -294,6 +320,7 @@ def main() -> None:
         args.draw,
         args.electrodes,
         args.iterations,
+        args.verbose,
     )
     records = []
     with (args.out / "runs.jsonl").open("w") as log:
@@ -314,6 +341,7 @@ def main() -> None:
     )
     print("|---|---|---|---|---|---|---|---|")
     print(row(label, records))
+    print(dwells(records))
 
 
 if __name__ == "__main__":

@@ -42,7 +42,27 @@ def test_iterations_cap_every_run_of_the_population(
     assert record["iterations"] == 1
     config = json.loads((out / "run205" / "config.json").read_text())["config"]
     assert config["tuning"]["max_iterations"] == 1
-    assert "| random, 8 tone(s) |" in capsys.readouterr().out
+    printed = capsys.readouterr()
+    assert "| random, 8 tone(s) |" in printed.out
+    # where the clock went, in the gyro's own dwells: the purposes add up to the counted clock
+    assert record["dwell_s"] > 0
+    purposes = sum(record["bench_time_by_purpose_s"].values())
+    parts = sum(record["bench_time_split_s"].values())
+    assert purposes == pytest.approx(parts, rel=1e-9)
+    assert 0 < purposes <= record["clock_s"]
+    assert "dwells (bench clock / dwell_s), medians:" in printed.out
+    assert "iteration 1:" not in printed.err  # the runs' own lines only with --verbose
+
+
+def test_verbose_prints_every_run_s_progress(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    script = _script(monkeypatch)
+    out = tmp_path / "pop"
+    argv = ["clock_population.py", "--gyro", "random", "--tones", "8", "--seeds", "205"]
+    monkeypatch.setattr(sys, "argv", [*argv, "--iterations", "1", "--verbose", "--out", str(out)])
+    script.main()
+    assert "iteration 1: fitting" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("value", ["0", "-2"])
