@@ -22,7 +22,8 @@ draws only its noise, and the bench's seed plus ``100000 K``).
 After every measurement a recorder reads the TRUE split at that bias on the clock (the run never
 sees it). The time to 1 mHz is the clock at the end of the first verification of an answer
 whose true split was then at most 1 mHz. One JSON line per run goes to ``<out>/runs.jsonl``;
-then the table row.
+then the table row, and a line of medians in the gyro's own dwells (bench clock / ``dwell_s``):
+in all, per purpose and settling against acquiring. ``--verbose`` prints every run's progress.
 ``--table DIR [DIR ...]`` prints the rows of earlier populations from their ``runs.jsonl``.
 """
 
@@ -295,8 +296,9 @@ def main() -> None:
     if args.table:
         for folder in args.table:
             lines = (folder / "runs.jsonl").read_text().splitlines()
-            print(row(folder.name, [json.loads(line) for line in lines]))
-            print(dwells([json.loads(line) for line in lines]))
+            records = [json.loads(line) for line in lines]
+            print(row(folder.name, records))
+            print(dwells(records))
         return
     args.out.mkdir(parents=True, exist_ok=True)
     tables = {}
