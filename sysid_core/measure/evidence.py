@@ -234,12 +234,12 @@ def peak_prominence(
     ``PEAK_Z + sqrt(2 ln n)``.
     """
     n = int(s.size)
-    sd = np.full(n, np.sqrt(np.mean(np.sum(residual**2, axis=(-2, -1)))))
+    sd = np.zeros(n)
     if "noise_var" in sweep:
         var = np.asarray(sweep["noise_var"].values, dtype=float)[0][mask]
-        dev = np.sqrt(np.sum(np.where(np.isfinite(var) & (var >= 0), var, 0.0), axis=(-2, -1)))
-        if np.all(np.isfinite(var)) and np.all(dev > 0):
-            sd = dev
+        sd = np.sqrt(np.sum(np.where(var >= 0, var, np.nan), axis=(-2, -1)))
+    if not np.all(np.isfinite(sd) & (sd > 0)):  # no device noise: what the fit leaves
+        sd = np.full(n, np.sqrt(np.mean(np.sum(residual**2, axis=(-2, -1)))))
     above = tuple(
         float((s[i_pk] - s[e]) / max(float(np.hypot(sd[i_pk], sd[e])), 1e-300)) for e in (0, -1)
     )
