@@ -59,14 +59,19 @@ def refit(
     *,
     drift: bool | float = False,
     refits: int = REFITS,
+    first: tuple[FittedModel, list[str]] | None = None,
 ) -> tuple[FittedModel, list[str]]:
     """``fit_structure`` of ``dataset``, then ``refits`` fits weighted by :func:`z_weights`.
 
     The notes are the last fit's. A weighted fit that fails (a solver error) leaves the
     previous one. ``drift=True`` searches the common drift rate in the first fit only; the
-    refits undo the rate it found.
+    refits undo the rate it found. ``first``: the unweighted fit and its notes, if already made.
     """
-    model, notes = fit_structure(dataset, structure, objective, solver, drift=drift)
+    model, notes = (
+        fit_structure(dataset, structure, objective, solver, drift=drift)
+        if first is None
+        else first
+    )
     if drift is True:  # the rate the first fit found: the refits do not search it again
         found = model.facts.drift_rate_per_h
         drift = found / 3600.0 if found is not None else False

@@ -64,6 +64,7 @@ __all__ = [
     "assess_window",
     "noise_share",
     "peak_prominence",
+    "response_error",
 ]
 
 #: Largest relative response error of the single-bias fit of a narrow window.
@@ -246,6 +247,18 @@ def peak_prominence(
     return (above[0], above[1]), PEAK_Z + float(np.sqrt(2 * np.log(max(n, 2))))
 
 
+def response_error(sweep: xr.Dataset, model: FittedModel) -> float:
+    """The relative response error of ``model`` over a one-experiment ``sweep``.
+
+    ``‖G − ψ‖ / ‖ψ‖`` over the measured points, ``G`` the model's response at no bias.
+    """
+    mask = measured_mask(sweep)[0]
+    f = np.asarray(sweep["frequency"].values, dtype=float)[mask]
+    psi = np.asarray(sweep["response"].values[0])[mask]
+    g = model.response(f, [])
+    return float(np.linalg.norm(g - psi) / max(float(np.linalg.norm(psi)), 1e-300))
+
+
 def _sigma(values: np.ndarray) -> np.ndarray:
     return np.linalg.norm(values, ord=2, axis=(-2, -1))
 
@@ -275,7 +288,7 @@ def assess_window(sweep: xr.Dataset, model: FittedModel, band: bool = False) -> 
     checks: list[Check] = []
 
     g = model.response(f, [])
-    rel = float(np.linalg.norm(g - psi) / max(float(np.linalg.norm(psi)), 1e-300))
+    rel = response_error(sweep, model)
     tol = BAND_FIT_TOLERANCE if band else FIT_TOLERANCE
     # narrow windows only: a whole-band sweep's points sit in the modes' tails, where the
     # noise is large against the response and an allowance let a fit of the wrong modes pass

@@ -83,13 +83,27 @@ class Fitter:
         """A single sweep's model and the evidence that it shows both modes.
 
         A window without both modes is expected here: the evidence says so, not the fit's notes.
+        A narrow window measures the split: its fit is weighted as the noise enters it
+        (:func:`~sysid_core.identification.reweighting.refit`), which makes it, to first order,
+        the fit of the response error. A whole-band sweep locates the modes: its plain fit
+        stands if its evidence holds; if not, the weighted fit (started from the plain one)
+        stands if its evidence holds; if neither holds, the plain fit, whose modes place the
+        windows that follow (:mod:`sysid_core.measure.zoom`). Where the peaks are sampled at a
+        step of a few bandwidths, the plain fit misses their heights: a band of high-Q modes
+        sampled at 2.5 bandwidths placed them within a bandwidth but missed the data by 0.8 of
+        the response, where the weighted fit met them (docs/fitting.md).
         """
         single = sweep.isel(electrode=[])
-        if band:
-            model, _ = fit_structure(single, self.structure, self.objective, self.solver)
-        else:  # a narrow window measures the split: weighted as its noise enters (refit)
+        if not band:
             model, _ = refit(single, self.structure, self.objective, self.solver)
-        return model, assess_window(sweep, model, band=band)
+            return model, assess_window(sweep, model)
+        plain = fit_structure(single, self.structure, self.objective, self.solver)
+        evidence = assess_window(sweep, plain[0], band=True)
+        if evidence.ok:
+            return plain[0], evidence
+        weighted, _ = refit(single, self.structure, self.objective, self.solver, first=plain)
+        again = assess_window(sweep, weighted, band=True)
+        return (weighted, again) if again.ok else (plain[0], evidence)
 
     def found(self, model: FittedModel) -> list[str]:
         """What a fit of this fitter found, for the run's progress: the law and the trend."""
