@@ -9,7 +9,10 @@ All three criteria are convex in ``w``: with ``K(w) = K0 + sum_p K_p w_p``,
 
 Numerics: the programs are written for ``K~(w) = (K(w) - lam_ref M) / (lam_ref d)`` with
 ``lam_ref`` the mean eigenvalue at the centre of the box and ``d = 1e-3``, so a 1 mHz split is
-O(1e-4) rather than O(1e-7) of the matrix entries.
+O(1e-4) rather than O(1e-7) of the matrix entries. A model extrapolated over wide limits can
+have no oscillating modes at that centre (``lam_ref <= 0``, electrodes that soften): the spread
+is still ``|lam_ref| d`` times the scaled one, and the tie-break's tolerance in Hz is read at the
+band's centre, ``omega_center``.
 """
 
 from __future__ import annotations
@@ -155,9 +158,11 @@ def solve_spread(
     n_t = box.shape[0]
     u, t = x[:n_t], float(x[n_t + 1])
     if anchor_w is not None and n_t > 2:
-        # t (scaled) that corresponds to tie_tol_hz more spread
-        lam = sc.lam_ref
-        dt = ((np.sqrt(lam) + 2 * np.pi * tie_tol_hz) ** 2 - lam) / (lam * _D)
+        # t (scaled) that corresponds to tie_tol_hz more spread, near the modes' own eigenvalue:
+        # the box centre's where the model has oscillating modes there, else the band centre's
+        # (a model whose electrodes soften can have none at the centre of a wide box)
+        lam = sc.lam_ref if sc.lam_ref > 0 else model.omega_center**2
+        dt = ((np.sqrt(lam) + 2 * np.pi * tie_tol_hz) ** 2 - lam) / (abs(sc.lam_ref) * _D)
         prog2, _ = spread_program(model, box, target_lam, bound=t + dt, anchor_w=anchor_w)
         try:
             u = solver.solve(prog2).x[:n_t]
