@@ -25,8 +25,9 @@ from sysid_core.data.schema import measured_mask
 from sysid_core.identification.drift import has_time_stamps
 from sysid_core.identification.fitting import fit_structure
 from sysid_core.identification.objective import Objective
+from sysid_core.identification.outputerror import refine_output_error
 from sysid_core.identification.reweighting import refit
-from sysid_core.measure.evidence import WindowAssessment, assess_window
+from sysid_core.measure.evidence import WindowAssessment, assess_window, response_error
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.structures import ModelStructure
 
@@ -103,7 +104,19 @@ class Fitter:
             return plain[0], evidence
         weighted, _ = refit(single, self.structure, self.objective, self.solver, first=plain)
         again = assess_window(sweep, weighted, band=True)
-        return (weighted, again) if again.ok else (plain[0], evidence)
+        if again.ok:
+            return weighted, again
+        best: tuple[FittedModel, WindowAssessment] | None = None
+        for start in (plain[0], weighted):
+            refined = refine_output_error(single, start)
+            if refined is None:
+                continue
+            found = assess_window(sweep, refined, band=True)
+            if found.ok:
+                return refined, found
+            if best is None or response_error(sweep, refined) < response_error(sweep, best[0]):
+                best = refined, found
+        return best if best is not None else (plain[0], evidence)
 
     def found(self, model: FittedModel) -> list[str]:
         """What a fit of this fitter found, for the run's progress: the law and the trend."""

@@ -122,7 +122,10 @@ def locate(
 
     ``tries``: ``(suffix, frequencies)``, the file of each ``path`` with the suffix; one that
     repeats a sweep already made is skipped. The first whole-band sweep that fails is followed
-    by windows around the modes its fit placed (:func:`~sysid_core.measure.zoom.zoom_grid`, once).
+    by windows around the modes its fit placed (:func:`~sysid_core.measure.zoom.zoom_grid`), and
+    so is each denser whole-band sweep that fails, before the next one: a denser sweep places
+    the modes closer, and its windows cost a few dozen points where the next fallback costs
+    hundreds or thousands.
     ``probe``: measured first, as ``path`` itself; it ends the search if it shows both modes
     and the bench is quiet (:data:`QUIET_NOISE`), else the tries follow. The return says
     whether the first sweep measured showed both modes on a quiet bench; without a probe it
@@ -148,22 +151,23 @@ def locate(
             f"{why}; measuring the locating band"
         )
     done: list[np.ndarray] = []
-    zoomed = False
+    names: list[str] = []
     while tries:
         suffix, freqs = tries.pop(0)
         if any(d.size == freqs.size and np.allclose(d, freqs) for d in done):
             continue
         name = f"{path.stem}{suffix}.nc"
+        names.append(suffix)
         data, model, evidence = sweep(freqs, path.with_name(name), True)
         if evidence.ok:
             first = judge and probe is None and not done
             return first and bench_noise(data, model) < QUIET_NOISE
         done.append(freqs)
-        zoom = None if zoomed else zoom_grid(freqs, evidence, plan, denser_points)
+        zoom = zoom_grid(freqs, evidence, plan, denser_points)
         then = ""
         if zoom is not None:  # windows around the modes its fit placed roughly
-            zoomed = True
-            tries.insert(0, ("-zoom", zoom))
+            zooms = sum(n.startswith("-zoom") for n in names)
+            tries.insert(0, ("-zoom" if not zooms else f"-zoom{zooms + 1}", zoom))
             f = evidence.frequencies_hz
             then = f"; windows around {f[0]:.3f} / {f[1]:.3f} Hz"
         say(
