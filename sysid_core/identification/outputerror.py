@@ -38,10 +38,13 @@ from sysid_core.identification.problem import EPS_DAMPING
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import principal_part
 
-__all__ = ["MAX_EVALUATIONS", "refine_output_error"]
+__all__ = ["MAX_EVALUATIONS", "MIN_MASS_RATIO", "refine_output_error"]
 
 #: The search stops after this many evaluations of the response per unknown.
 MAX_EVALUATIONS = 50
+#: A refined mass matrix's eigenvalues may differ by at most the inverse of this ratio (a
+#: gyro's two modal masses are of one order; a nearly singular ``M`` is a search gone astray).
+MIN_MASS_RATIO = 1e-3
 
 
 def _sym(theta: np.ndarray) -> np.ndarray:
@@ -146,15 +149,18 @@ class _ResponseFit:
         return np.concatenate([jac.real, jac.imag])
 
     def model(self, x: np.ndarray, evaluations: int) -> FittedModel | None:
-        """The model of ``x``; None unless ``K0`` is positive definite and both modes damped.
+        """The model of ``x``, or None where it is not a gyro's.
 
-        Damped: stable poles, bandwidths above ``EPS_DAMPING·ε·f``, the bound the conic fits
-        put on ``C`` (:mod:`sysid_core.identification.problem`).
+        A gyro's: ``K0`` positive definite, ``M`` not nearly singular (:data:`MIN_MASS_RATIO`),
+        both modes damped: stable poles, bandwidths above ``EPS_DAMPING·ε·f``, the bound the
+        conic fits put on ``C`` (:mod:`sysid_core.identification.problem`).
         """
         lo, d, r, p = self.unpack(x)
         m = lo @ lo.T
         k0 = self.w0**2 * (m + self.eps * d)
-        if not np.all(np.linalg.eigvalsh(k0) > 0):
+        masses = np.linalg.eigvalsh(m)
+        # a mass matrix no more ill-conditioned than a modal frequency's resolution allows
+        if not (np.all(np.linalg.eigvalsh(k0) > 0) and masses[0] > MIN_MASS_RATIO * masses[1]):
             return None
         start = self.start
         model = dataclasses.replace(
@@ -173,7 +179,7 @@ class _ResponseFit:
                 model.M, model.C, k0, model.poly, self.w0, model.omega_half, model.structure.side
             )
             modes = model.modal([])
-        except ModelError:
+        except (ModelError, np.linalg.LinAlgError):
             return None
         f, bw = np.asarray(modes.frequencies_hz), np.asarray(modes.bandwidth_hz, dtype=float)
         # no sharper than the fits allow (Q under about 1/(ε EPS_DAMPING))
