@@ -111,3 +111,18 @@ def test_a_model_with_electrodes_is_not_refined() -> None:
         stiffness_factor=None,
     )
     assert refine_output_error(sweep, several) is None
+
+
+def test_a_search_that_ends_on_a_singular_mass_matrix_gives_none() -> None:
+    """A search gone astray (``M``'s second eigenvalue at 0) is refused, not raised."""
+    from sysid_core.identification.outputerror import _ResponseFit
+
+    _, sweep, fitter = _zoom(226, 1)
+    single = sweep.isel(electrode=[])
+    model, _ = fit_structure(single, fitter.structure, fitter.objective, fitter.solver)
+    psi = single["response"].values[0]
+    problem = _ResponseFit(single["frequency"].values, psi, np.ones(psi.shape), model)
+    x = problem.initial()
+    assert problem.model(x, 0) is not None
+    x[0], x[1] = 0.0, 0.0  # L21 = L22 = 0: M = diag(m11, 0)
+    assert problem.model(x, 0) is None
