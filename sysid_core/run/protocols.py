@@ -344,10 +344,9 @@ class LeanProtocol(Protocol):
     def _learn(self, bias: np.ndarray, path: Path, first: np.ndarray | None = None) -> None:
         """Measure one identification experiment where its modes should be (``first``: here).
 
-        The band, a scout or a mode grid (:mod:`sysid_core.measure.lean`); one that does not show
-        both modes is followed by the locating band, one four times as dense and the band at
-        ``resolution_hz``, each whole-band sweep that fails by windows around the modes it fitted
-        first (:mod:`sysid_core.measure.zoom`).
+        The band, a scout or a mode grid (:mod:`sysid_core.measure.lean`); one without both modes
+        is followed by the locating band, one four times as dense and the band at
+        ``resolution_hz``, each failed whole-band sweep first by windows (``measure.zoom``).
         With ``[experiment] probe``, the run's first look at the band is a probe of a third of
         its points, which also says whether the bench is quiet (:mod:`sysid_core.measure.locating`).
         """
