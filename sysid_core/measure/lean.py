@@ -195,6 +195,15 @@ def anchors(f: np.ndarray, bw: np.ndarray, plan: SweepPlan) -> np.ndarray:
     return np.clip(np.concatenate(points), *plan.band_hz)
 
 
+def _core_steps(
+    guess: ModeGuess, points_per_bw: float, max_half: int
+) -> tuple[np.ndarray, list[int]]:
+    """Each mode's step ``max(bw / points_per_bw, h / max_half)`` and its points a side."""
+    bw, half = guess.bandwidth_hz, guess.core_half_widths()
+    steps = np.maximum(bw / points_per_bw, half / max_half)
+    return steps, [math.ceil(hi / si - 1e-9) for hi, si in zip(half, steps, strict=True)]
+
+
 def _mode_points(
     guess: ModeGuess, plan: SweepPlan, points_per_bw: float, max_half: int
 ) -> np.ndarray:
@@ -202,12 +211,9 @@ def _mode_points(
 
     Then the anchors; everything inside the band, near-duplicates merged.
     """
-    f, bw, half = guess.frequencies_hz, guess.bandwidth_hz, guess.core_half_widths()
-    steps = np.maximum(bw / points_per_bw, half / max_half)
-    parts = []
-    for fi, si, hi in zip(f, steps, half, strict=True):
-        k = math.ceil(hi / si - 1e-9)
-        parts.append(fi + si * np.arange(-k, k + 1))
+    f, bw = guess.frequencies_hz, guess.bandwidth_hz
+    steps, counts = _core_steps(guess, points_per_bw, max_half)
+    parts = [fi + si * np.arange(-k, k + 1) for fi, si, k in zip(f, steps, counts, strict=True)]
     points = _clip(np.concatenate([*parts, anchors(f, bw, plan)]), plan.band_hz)
     return _merge(points, 1e-3 * float(bw.min()))
 
@@ -266,10 +272,13 @@ def mode_grid(
     if resolve and np.any(step > RESOLVED_STEP * bw):
         # too coarse to resolve the modes: a finer grid if one more acquisition pays for it
         needed = math.ceil(float(np.max(half / (RESOLVED_STEP * bw))) - 1e-9)
+        budget = tone_budget(points.size, plan.tones, extra=1)
+        # counted before they are made: a model's mode of a far too narrow bandwidth would
+        # ask for hundreds of millions (seen: 5e8 points of a 2 kHz gyro's window)
+        if 2 * max(_core_steps(guess, points_per_bw, needed)[1]) + 1 > budget:
+            return points
         finer = _mode_points(guess, plan, points_per_bw, needed)
-        if finer.size <= tone_budget(points.size, plan.tones, extra=1):
-            return finer
-        return points
+        return finer if finer.size <= budget else points
     spill = points.size % plan.tones
     if points.size - spill >= MIN_POINTS and 0 < spill <= ANCHORS // 2:
         # a few points spill into one more acquisition: drop that many of the nearer anchors
