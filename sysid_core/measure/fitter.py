@@ -88,11 +88,15 @@ class Fitter:
         (:func:`~sysid_core.identification.reweighting.refit`), which makes it, to first order,
         the fit of the response error. A whole-band sweep locates the modes: its plain fit
         stands if its evidence holds; if not, the weighted fit (started from the plain one)
-        stands if its evidence holds; if neither holds, the plain fit, whose modes place the
-        windows that follow (:mod:`sysid_core.measure.zoom`). Where the peaks are sampled at a
-        step of a few bandwidths, the plain fit misses their heights: a band of high-Q modes
-        sampled at 2.5 bandwidths placed them within a bandwidth but missed the data by 0.8 of
-        the response, where the weighted fit met them (docs/fitting.md).
+        stands if its evidence holds; if neither holds, the least response error is searched
+        from each (:func:`~sysid_core.identification.outputerror.refine_output_error`), and a
+        result whose evidence holds stands; else the result of least response error (the plain
+        fit if the search found none), whose modes place the windows that follow
+        (:mod:`sysid_core.measure.zoom`). Where the peaks are sampled at a step of a few
+        bandwidths, an equation-error fit misses their heights: a band of high-Q modes sampled
+        at 2.5 bandwidths placed them within a bandwidth but missed the data by 0.8 of the
+        response, where the weighted fit met them; a zoom at 2-3 bandwidths missed by 0.48
+        (plain) and 0.63 (weighted) where the search met the noise, 0.11 (docs/fitting.md).
         """
         single = sweep.isel(electrode=[])
         if not band:
