@@ -8,6 +8,7 @@ reaches the tests, and the tests' known figures (published biases, frequencies) 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +28,7 @@ __all__ = [
     "V_GYRO",
     "cloverleaf_truth",
     "degenerate_config",
+    "random_gyro_sweep",
     "simulate",
 ]
 
@@ -151,3 +153,37 @@ def degenerate_config(
         },
         **sections,
     }
+
+
+def random_gyro_sweep(
+    seed: int,
+    noise: float,
+    noise_seed: int,
+    frequencies: Callable[[Any, np.ndarray], np.ndarray],
+    b1: float = 0.0,
+) -> tuple[Any, np.ndarray, Any, Any]:
+    """One sweep of random gyro ``seed`` and the fitter of its structure.
+
+    The bias is ``b1`` on the first electrode and zero on the others; ``frequencies(device,
+    bias)`` gives the sweep's points. ``noise``: the device's, relative to its peak.
+    Returns the device, the bias, the one-experiment data set and a least-squares fitter
+    (:class:`~sysid_core.measure.fitter.Fitter`, Clarabel).
+    """
+    from sysid_core.data.schema import experiment_from_measurement
+    from sysid_core.measure.fitter import Fitter
+    from sysid_core.plugin.registry import get_registry
+
+    registry = get_registry()
+    device = registry.device("random-gyro", seed=seed, noise=noise, noise_seed=noise_seed)
+    bias = np.zeros(len(device.electrodes))
+    bias[0] = b1
+    freqs = frequencies(device, bias)
+    sweep = experiment_from_measurement(
+        device.measure(bias, freqs), bias, list(device.electrodes), device.structure_potential, "r"
+    )
+    fitter = Fitter(
+        registry.structure(device.structure),
+        registry.objective("least-squares"),
+        registry.solver("clarabel"),
+    )
+    return device, bias, sweep, fitter

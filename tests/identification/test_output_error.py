@@ -15,34 +15,24 @@ import dataclasses
 import numpy as np
 import pytest
 
-from sysid_core.data.schema import experiment_from_measurement
 from sysid_core.identification.fitting import fit_structure
 from sysid_core.identification.outputerror import refine_output_error
 from sysid_core.identification.reweighting import refit
 from sysid_core.measure.evidence import BAND_FIT_TOLERANCE, noise_share, response_error
-from sysid_core.measure.fitter import Fitter
-from sysid_core.plugin.registry import get_registry
+from tests.truths import random_gyro_sweep
 
 NOISE = 2.5 * np.sqrt(8.0) * 1e-3
 
 
 def _zoom(seed: int, noise_seed: int, noise: float = NOISE):  # type: ignore[no-untyped-def]
-    registry = get_registry()
-    device = registry.device("random-gyro", seed=seed, noise=noise, noise_seed=noise_seed)
-    bias = np.zeros(len(device.electrodes))
-    truth = device.true_modal_frequencies_hz(bias)
-    core = [np.arange(-8.0, 8.01, 1.0) + f + 3.0 for f in truth]
-    far = [truth[0] - np.array([40.0, 80.0]), truth[1] + np.array([40.0, 80.0])]
-    freqs = np.unique(np.concatenate(core + far))
-    sweep = experiment_from_measurement(
-        device.measure(bias, freqs), bias, list(device.electrodes), device.structure_potential, "r"
-    )
-    fitter = Fitter(
-        registry.structure(device.structure),
-        registry.objective("least-squares"),
-        registry.solver("clarabel"),
-    )
-    return truth, sweep, fitter
+    def around_the_modes(device, bias):  # type: ignore[no-untyped-def]
+        truth = device.true_modal_frequencies_hz(bias)
+        core = [np.arange(-8.0, 8.01, 1.0) + f + 3.0 for f in truth]
+        far = [truth[0] - np.array([40.0, 80.0]), truth[1] + np.array([40.0, 80.0])]
+        return np.unique(np.concatenate(core + far))
+
+    device, bias, sweep, fitter = random_gyro_sweep(seed, noise, noise_seed, around_the_modes)
+    return device.true_modal_frequencies_hz(bias), sweep, fitter
 
 
 def _noise(sweep) -> float:  # type: ignore[no-untyped-def]

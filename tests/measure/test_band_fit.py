@@ -12,32 +12,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sysid_core.data.schema import experiment_from_measurement
 from sysid_core.identification.fitting import fit_structure
 from sysid_core.measure.evidence import BAND_FIT_TOLERANCE, response_error
-from sysid_core.measure.fitter import Fitter
-from sysid_core.plugin.registry import get_registry
+from tests.truths import random_gyro_sweep
 
 #: 60 dB, the drive shared by 8 tones.
 EIGHT_TONES = np.sqrt(8.0) * 1e-3
 
 
 def _band(seed: int, noise_seed: int, step_hz: float = 0.5):  # type: ignore[no-untyped-def]
-    registry = get_registry()
-    device = registry.device("random-gyro", seed=seed, noise=EIGHT_TONES, noise_seed=noise_seed)
-    bias = np.zeros(len(device.electrodes))
-    bias[0] = 1.0
-    lo, hi = device.band_hz
-    freqs = np.arange(lo, hi, step_hz)
-    sweep = experiment_from_measurement(
-        device.measure(bias, freqs), bias, list(device.electrodes), device.structure_potential, "r"
-    )
-    fitter = Fitter(
-        registry.structure(device.structure),
-        registry.objective("least-squares"),
-        registry.solver("clarabel"),
-    )
-    return device, bias, sweep, fitter
+    def over_the_band(device, bias):  # type: ignore[no-untyped-def]
+        lo, hi = device.band_hz
+        return np.arange(lo, hi, step_hz)
+
+    return random_gyro_sweep(seed, EIGHT_TONES, noise_seed, over_the_band, b1=1.0)
 
 
 @pytest.mark.parametrize("noise_seed", [1, 2, 3])
