@@ -7,20 +7,19 @@ the response error :math:`\hat G - \psi`. Both need the modes roughly right to b
 a sweep samples high-Q peaks at a step of a bandwidth or more, the weights ``1/‖Z‖`` of a fit
 whose poles are a bandwidth off are wrong where they matter most, and the iteration can settle
 on modes that miss the data's own peaks while the response error stays several times the
-noise (measured: a 12.7 kHz gyro, bandwidths 0.33/0.46 Hz, a 54-point window at 0.67 Hz near
-the modes, 60 dB shared by 8 tones: the equation-error fit misses the data by 0.48 of the
-response and the weighted one by 0.63, where the truth leaves 0.12, the noise).
+noise (measured: a 12.7 kHz gyro, true bandwidths about 0.2/0.5 Hz, a 54-point window at
+0.67 Hz near the modes, 60 dB shared by 8 tones: the equation-error fit misses the data by
+0.48 of the response and the weighted one by 0.63, where the truth leaves 0.12, the noise).
 
 :func:`refine_output_error` minimises the response error itself over the one-sweep model's
 ``M``, ``C``, ``K0`` and ``P`` (a Levenberg-Marquardt search started from a fitted model, with
 the exact Jacobian of :math:`\hat G = P Z^{-1}` or :math:`Z^{-1} P`), each point weighted by its
 measured noise where the sweep carries it: the maximum-likelihood fit of the sweep under
-Gaussian noise. A start near the truth converges to it; the search is kept only when the
-result has a positive definite ``M`` and ``K0`` and two damped modes, and misses the data by
-less than the start did. ``C`` itself is not held positive definite: a non-proportional damping
-fitted to one sweep can take a slightly negative eigenvalue with both modes damped (the window
-above: modes within 13 and 8 mHz of the truth, bandwidths 0.19/0.49 Hz, the response missed by
-0.114, the noise's share), and only the modes of such a model are used.
+Gaussian noise. ``M = L Lᵀ`` and ``C = R Rᵀ`` keep the mass and the damping positive
+semidefinite whatever the step. A start near the truth converges to it (the window above:
+modes within 12 and 7 mHz of the truth, the data missed by about their noise); the
+search is kept only when it misses the data by less than the start did, ``K0`` is positive
+definite, ``M`` is not nearly singular and both modes are damped.
 """
 
 from __future__ import annotations
@@ -31,7 +30,7 @@ import numpy as np
 import scipy.optimize
 import xarray as xr
 
-from sysid_core.conic.program import SYM_BASIS
+from sysid_core.conic.program import SYM_BASIS, sym
 from sysid_core.data.schema import measured_mask
 from sysid_core.errors import ModelError
 from sysid_core.identification.problem import EPS_DAMPING
@@ -47,12 +46,8 @@ MAX_EVALUATIONS = 50
 MIN_MASS_RATIO = 1e-3
 
 
-def _sym(theta: np.ndarray) -> np.ndarray:
-    """The symmetric 2×2 matrix of entries 11, 12, 22 (the fits' basis)."""
-    return np.tensordot(theta, SYM_BASIS, axes=1)
-
-
 def _sym_entries(a: np.ndarray) -> np.ndarray:
+    """The entries 11, 12, 22 of a (nearly) symmetric 2×2 matrix: the inverse of ``sym``."""
     return np.array([a[0, 0], 0.5 * (a[0, 1] + a[1, 0]), a[1, 1]])
 
 
@@ -111,7 +106,7 @@ class _ResponseFit:
         lo = np.array([[self.l11, 0.0], [x[0], x[1]]])
         r = np.array([[x[5], 0.0], [x[6], x[7]]])
         p = (x[8 : 8 + n] + 1j * x[8 + n :]).reshape(self.start.poly.shape)
-        return lo, _sym(x[2:5]), r, p
+        return lo, sym(x[2:5]), r, p
 
     def _inverse_and_response(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         lo, d, r, p = self.unpack(x)

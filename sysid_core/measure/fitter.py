@@ -110,17 +110,18 @@ class Fitter:
         again = assess_window(sweep, weighted, band=True)
         if again.ok:
             return weighted, again
-        best: tuple[FittedModel, WindowAssessment] | None = None
+        tried = []
         for start in (plain[0], weighted):
             refined = refine_output_error(single, start)
-            if refined is None:
-                continue
-            found = assess_window(sweep, refined, band=True)
-            if found.ok:
-                return refined, found
-            if best is None or response_error(sweep, refined) < response_error(sweep, best[0]):
-                best = refined, found
-        return best if best is not None else (plain[0], evidence)
+            if refined is not None:
+                found = assess_window(sweep, refined, band=True)
+                if found.ok:
+                    return refined, found
+                tried.append((response_error(sweep, refined), refined, found))
+        if not tried:
+            return plain[0], evidence
+        _, refined, found = min(tried, key=lambda t: t[0])
+        return refined, found
 
     def found(self, model: FittedModel) -> list[str]:
         """What a fit of this fitter found, for the run's progress: the law and the trend."""
