@@ -36,6 +36,20 @@ def test_a_replica_reads_the_truth_the_run_ended_with(
     size = np.linalg.norm(last["true"])
     assert np.linalg.norm(last["model"] - last["true"]) < 0.2 * size
     assert not np.array_equal(last["model"], last["true"])
+    # --coverage: every verdict's forecast bound beside the replica's truth at its window's end;
+    # the last is the run's converged end, its truth the one the run ended with
+    verdicts = truth_along_run.coverage(tmp_path, "good")
+    assert [v["iteration"] for v in verdicts] == [r["iteration"] for r in verified]
+    end = verdicts[-1]
+    assert end["converged"] is record["converged"]
+    assert end["true_mhz"] == pytest.approx(record["true_end_split_hz"] * 1e3, abs=0.3)
+    assert end["limit_mhz"] == 2.0 and (end["bound_mhz"] <= 2.0) is end["converged"]
+    table = truth_along_run.coverage_table(verdicts)
+    assert table[0].startswith("| bound (mHz) |") and any(
+        r.startswith("| 0-1 | 1 |") for r in table
+    )
+    converged = sum(v["converged"] for v in verdicts)
+    assert table[-1].endswith(f"{converged} verdicts converged; 0 with the truth over the limit")
     # the population's progress line says the same end
     line = drift_population.progress(record, 3, 24)
     assert line.startswith("[3/24] gyro 110: 23.7 kHz")
