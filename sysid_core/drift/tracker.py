@@ -47,8 +47,9 @@ from sysid_core.measure.evidence import WindowAssessment
 from sysid_core.measure.verification import Verification
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import split_vector_hz
+from sysid_core.tuning.confidence import split_interval
 
-__all__ = ["NEAR_ACCEPTANCES", "RICE_95", "SAMPLED_WITHIN", "Tracker", "blind"]
+__all__ = ["NEAR_ACCEPTANCES", "RICE_95", "SAMPLED_WITHIN", "Tracker", "blind", "least_split"]
 
 #: Measures, saves and judges a sweep: ``(bias, frequencies, path, band)`` to ``(sweep, its
 #: single-bias model, evidence)`` (the protocol's :meth:`~sysid_core.run.protocols.Protocol.sweep`).
@@ -84,6 +85,7 @@ class Tracker:
     near_hz: float = float("inf")
     keep: int = 4
     windows: list[xr.Dataset] = field(default_factory=list)
+    #: Each window's split as near degenerate modes as its fit allows (:func:`least_split`).
     splits: list[float] = field(default_factory=list)
     #: Each window's own single-bias model.
     models: list[FittedModel] = field(default_factory=list)
@@ -129,7 +131,7 @@ class Tracker:
         t = stamps(ver.sweep)
         if ver.verified and ver.split_hz is not None and t.size == ver.sweep["frequency"].size:
             self.windows.append(ver.sweep)
-            self.splits.append(float(ver.split_hz))
+            self.splits.append(least_split(float(ver.split_hz), ver.model))
             self.models.append(ver.model)
             self.blind.append(bool(ver.windows) and blind(ver.sweep, ver.windows[-1]))
         elif ver.status == "located":
@@ -185,7 +187,7 @@ class Tracker:
         t = stamps(sweep)
         if split_hz is not None and t.size == sweep["frequency"].size:
             self.windows.append(sweep)
-            self.splits.append(float(split_hz))
+            self.splits.append(least_split(float(split_hz), model))
             self.models.append(model)
             self.blind.append(unseen)
 
@@ -272,10 +274,10 @@ class Tracker:
         """The windows the filter reads, and how many give no split of their own.
 
         A window whose fit has a mode none of its points came near gives no split (that mode
-        may be a phantom, :func:`blind`). The windows near degenerate modes (under
-        ``near_hz``) while the latest is one of them; else the latest window that gives its own
-        split, alone: far from degenerate modes, windows sit at biases between which the
-        model's law misses more than the drift.
+        may be a phantom, :func:`blind`). The windows near degenerate modes (the least split
+        their fit allows, :func:`least_split`, under ``near_hz``) while the latest is one of
+        them; else the latest window that gives its own split, alone: far from degenerate
+        modes, windows sit at biases between which the model's law misses more than the drift.
         """
         usable = [
             (w, own, s)
@@ -348,6 +350,17 @@ class Tracker:
             else:
                 hi = mid
         return hi
+
+
+def least_split(split_hz: float, own: FittedModel | None) -> float:
+    """The least split a window's own fit allows at 95 %: its interval's lower end.
+
+    ``split_hz`` where the fit states no interval (or there is no fit). What decides whether a
+    window is near degenerate modes (:attr:`Tracker.near_hz`): a window whose noise spans the
+    split cannot be told from one that is.
+    """
+    interval = None if own is None else split_interval(own)
+    return split_hz if interval is None else min(split_hz, float(interval[0]))
 
 
 def noise_said(trend: TrendModel) -> str:

@@ -15,12 +15,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
-from truths import degenerate_config
+from truths import degenerate_config, simulate
 
 from sysid_core import tune
-from sysid_core.drift.tracker import Tracker
+from sysid_core.device.simulation import GyroTruth
+from sysid_core.drift.tracker import Tracker, least_split
+from sysid_core.measure.fitter import Fitter
 from sysid_core.measure.verification import Verification
+from sysid_core.model.fitted import FittedModel
 from sysid_core.plugin.registry import get_registry
+from sysid_core.tuning.confidence import split_interval
 from sysid_core.verdict.judgement import END_GOAL
 
 ACCEPTANCE = 0.002
@@ -414,3 +418,51 @@ def test_windows_read_the_split_better_together_than_the_latest_alone(seed: int)
             np.mean(moved.modal_frequencies_hz(applied)), abs=1e-6
         )
     assert np.sqrt(np.mean(np.square(together))) < 0.5 * np.sqrt(np.mean(np.square(latest_err)))
+
+
+def _broad_window(seed: int) -> tuple[xr.Dataset, FittedModel]:
+    """A 16-point window of a 23 kHz gyro whose modes, 15 mHz apart, are 1.5 and 2.6 Hz wide
+    (non-proportional damping, 60 dB shared by 8 tones), and its own fit."""
+    f0, split = 23000.0, 0.015
+    turn = lambda deg: np.array(  # noqa: E731
+        [
+            [np.cos(np.deg2rad(deg)), -np.sin(np.deg2rad(deg))],
+            [np.sin(np.deg2rad(deg)), np.cos(np.deg2rad(deg))],
+        ]
+    )
+    w = 2 * np.pi * np.array([f0 - split / 2, f0 + split / 2])
+    truth = GyroTruth(
+        M=np.eye(2),
+        C=turn(-20) @ np.diag(2 * np.pi * np.array([1.5, 2.6])) @ turn(-20).T,
+        K0=turn(30) @ np.diag(w**2) @ turn(30).T,
+        Kp=np.zeros((0, 2, 2)),
+        structure_potential=5.0,
+        electrodes=(),
+    )
+    freqs = np.sort(f0 + np.concatenate([np.linspace(-5.0, 5.0, 12), [-25.0, -12.0, 12.0, 25.0]]))
+    sweep = simulate(truth, np.zeros((1, 0)), freqs, noise_peak=2.5e-3, seed=seed)
+    sweep["time_s"] = (("experiment", "frequency"), 10.0 * seed + np.arange(16.0)[None, :] / 8)
+    reg = get_registry()
+    fitter = Fitter(reg.structure("act"), reg.objective("least-squares"), reg.solver("clarabel"))
+    return sweep, fitter.fit(sweep)[0]
+
+
+def test_a_window_whose_noise_spans_the_split_counts_as_near() -> None:
+    """Five windows read a true split of 15 mHz as 20-31 mHz (their 95 % intervals reach down to
+    3-9 mHz). Judged by their readings they are far from degenerate modes (over ``near_hz``, 20
+    mHz) and the latest alone would place the next answer; judged by the least split each
+    allows, the filter reads them together."""
+    tracker = Tracker(near_hz=0.020)
+    readings = []
+    for seed in (0, 1, 2, 3, 5):
+        sweep, own = _broad_window(seed)
+        reading = own.split_hz([])
+        readings.append(reading)
+        low, high = split_interval(own)  # type: ignore[misc]
+        assert least_split(reading, own) == pytest.approx(low) and low < 0.015 < high
+        tracker.learned(Verification("verified", own.modal_frequencies_hz([]), [], sweep, own))
+    assert min(readings) > 0.020  # every reading over near_hz
+    chosen, refused = tracker.filtered()
+    assert refused == 0 and len(chosen) == 5
+    assert len(tracker.anchoring()) == tracker.keep
+    assert least_split(0.03, None) == 0.03  # no fit: the reading
