@@ -14,6 +14,7 @@ is the split the answer is solved for. :class:`sysid_core.drift.tracker.Tracker`
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,13 +29,17 @@ from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import mass_roots
 from sysid_core.tuning.confidence import split_interval
 
-__all__ = ["split_variance", "windows_forecast"]
+__all__ = ["interval_variance", "split_variance", "windows_forecast"]
 
 
 def split_variance(own: FittedModel) -> float:
     """The variance (Hz²) of a window's own split: the reach of its 95 % interval above it."""
-    interval = split_interval(own)
-    reach = 0.0 if interval is None else max(interval[1] - own.split_hz([]), 0.0)
+    return interval_variance(own.split_hz([]), split_interval(own))
+
+
+def interval_variance(split_hz: float, interval: tuple[float, float] | None) -> float:
+    """:func:`split_variance` of a window whose split and 95 % interval are known (Hz²)."""
+    reach = 0.0 if interval is None else max(interval[1] - split_hz, 0.0)
     return (reach / 1.96) ** 2
 
 
@@ -44,13 +49,15 @@ def windows_forecast(
     windows: list[tuple[xr.Dataset, FittedModel]],
     at: float,
     trend: TrendModel = LAB_TREND,
+    own_variances: Sequence[float] | None = None,
 ) -> tuple[np.ndarray, SplitForecast]:
     """The offset that gives ``moved`` the split the windows predict at ``at``, and the forecast.
 
-    ``windows``: sweeps and their own single-bias models, oldest first. Each window measures
-    the split twice, each with its fit's variance: its own split (from its split interval)
-    and the run's model anchored on it alone (from the anchor's least squares). The filter's
-    model is ``trend`` with the variance scale the windows support
+    ``windows``: sweeps and their own single-bias models, oldest first; ``own_variances``:
+    each window's :func:`split_variance` where the caller keeps them (else computed). Each
+    window measures the split twice, each with its fit's variance: its own split (from its
+    split interval) and the run's model anchored on it alone (from the anchor's least
+    squares). The filter's model is ``trend`` with the variance scale the windows support
     (:func:`~sysid_core.identification.trendnoise.fitted_trend`). The offset is traceless:
     ``moved``'s mean frequency stays.
 
@@ -66,12 +73,14 @@ def windows_forecast(
     # the split vector of each of the offset's three entries: the map is linear
     columns = np.array([_vector(basis, inv_root, scale) for basis in SYM_BASIS]).T
     own, anchored, times, variances, anchored_var = [], [], [], [], []
-    for sweep, own_model in windows:
+    if own_variances is None:
+        own_variances = [split_variance(own_model) for _, own_model in windows]
+    for (sweep, own_model), own_variance in zip(windows, own_variances, strict=True):
         own.append(_vector(split_offset(base, sweep, own_model), inv_root, scale))
         alone = frame.found if sweep is windows[-1][0] else anchor(model, [sweep], rate=False)
         anchored.append(_vector(alone.offset - frame.found.offset, inv_root, scale))
         times.append(float(stamps(sweep).mean()))
-        variances.append(max(split_variance(own_model), _FLOOR_HZ2))
+        variances.append(max(own_variance, _FLOOR_HZ2))
         cov = alone.offset_covariance
         anchored_var.append(
             np.inf if cov is None else max(0.5 * np.trace(columns @ cov @ columns.T), _FLOOR_HZ2)

@@ -33,8 +33,9 @@ from scipy.stats import rice
 
 from sysid_core.clock.runclock import stamps
 from sysid_core.data.schema import requested_bias
-from sysid_core.drift.forecast import windows_forecast, with_split_rate
+from sysid_core.drift.forecast import interval_variance, windows_forecast, with_split_rate
 from sysid_core.drift.policy import DriftPolicy
+from sysid_core.drift.windows import blind, least_of
 from sysid_core.errors import ModelError
 from sysid_core.identification.anchor import anchor
 from sysid_core.identification.drift import OffsetDrift, offset_drift
@@ -49,7 +50,7 @@ from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import split_vector_hz
 from sysid_core.tuning.confidence import split_interval
 
-__all__ = ["NEAR_ACCEPTANCES", "RICE_95", "SAMPLED_WITHIN", "Tracker", "blind", "least_split"]
+__all__ = ["NEAR_ACCEPTANCES", "RICE_95", "Tracker"]
 
 #: Measures, saves and judges a sweep: ``(bias, frequencies, path, band)`` to ``(sweep, its
 #: single-bias model, evidence)`` (the protocol's :meth:`~sysid_core.run.protocols.Protocol.sweep`).
@@ -85,11 +86,15 @@ class Tracker:
     near_hz: float = float("inf")
     keep: int = 4
     windows: list[xr.Dataset] = field(default_factory=list)
-    #: Each window's split as near degenerate modes as its fit allows (:func:`least_split`).
+    #: Each window's split as near degenerate modes as its fit allows (``least_split``,
+    #: :mod:`sysid_core.drift.windows`).
     splits: list[float] = field(default_factory=list)
+    #: Each window's own split's variance (:func:`~sysid_core.drift.forecast.split_variance`).
+    variances: list[float] = field(default_factory=list)
     #: Each window's own single-bias model.
     models: list[FittedModel] = field(default_factory=list)
-    #: Each window's own fit has a mode that none of its points came near (:func:`blind`).
+    #: Each window's own fit has a mode that none of its points came near (``blind``,
+    #: :mod:`sysid_core.drift.windows`).
     blind: list[bool] = field(default_factory=list)
     #: The rates the last :meth:`now` found (common and split), or None.
     rates: OffsetDrift | None = None
@@ -130,12 +135,24 @@ class Tracker:
         """
         t = stamps(ver.sweep)
         if ver.verified and ver.split_hz is not None and t.size == ver.sweep["frequency"].size:
-            self.windows.append(ver.sweep)
-            self.splits.append(least_split(float(ver.split_hz), ver.model))
-            self.models.append(ver.model)
-            self.blind.append(bool(ver.windows) and blind(ver.sweep, ver.windows[-1]))
+            unseen = bool(ver.windows) and blind(ver.sweep, ver.windows[-1])
+            self._keep(ver.sweep, float(ver.split_hz), ver.model, unseen)
         elif ver.status == "located":
             self.windows, self.splits, self.models, self.blind = [], [], [], []
+            self.variances = []
+
+    def _keep(
+        self, sweep: xr.Dataset, split_hz: float, model: FittedModel | None, unseen: bool
+    ) -> None:
+        """Keep a window: its least split and its own split's variance from one interval."""
+        interval = None if model is None else split_interval(model)
+        self.windows.append(sweep)
+        self.splits.append(least_of(split_hz, interval))
+        self.variances.append(
+            float("nan") if model is None else interval_variance(model.split_hz([]), interval)
+        )
+        self.models.append(model)  # type: ignore[arg-type]
+        self.blind.append(unseen)
 
     def stale(self, ds: xr.Dataset) -> xr.Dataset | None:
         """The latest window, to be measured again, or None.
@@ -182,14 +199,11 @@ class Tracker:
         """Keep ``sweep``, the latest window measured again, if it verified ``split_hz``.
 
         ``model``: its own single-bias model; ``unseen``: its fit has a mode that none of its
-        points came near (:func:`blind`).
+        points came near (:func:`~sysid_core.drift.windows.blind`).
         """
         t = stamps(sweep)
         if split_hz is not None and t.size == sweep["frequency"].size:
-            self.windows.append(sweep)
-            self.splits.append(least_split(float(split_hz), model))
-            self.models.append(model)
-            self.blind.append(unseen)
+            self._keep(sweep, float(split_hz), model, unseen)
 
     def anchoring(self) -> list[xr.Dataset]:
         """The latest window, and up to ``keep - 1`` earlier ones with a split under ``near_hz``.
@@ -235,7 +249,9 @@ class Tracker:
         chosen_own, refused = self.filtered()
         self.forecast = None
         if chosen_own:
-            offset, self.forecast = windows_forecast(model, moved, chosen_own, at)
+            offset, self.forecast = windows_forecast(
+                model, moved, chosen_own, at, own_variances=self.own_variances(chosen_own)
+            )
             moved = dataclasses.replace(moved, K0=np.asarray(moved.K0) + offset)
             span = np.concatenate([stamps(w) for w, _ in chosen_own])
             moved = with_split_rate(moved, self.forecast, float(np.ptp(span)))
@@ -274,10 +290,11 @@ class Tracker:
         """The windows the filter reads, and how many give no split of their own.
 
         A window whose fit has a mode none of its points came near gives no split (that mode
-        may be a phantom, :func:`blind`). The windows near degenerate modes (the least split
-        their fit allows, :func:`least_split`, under ``near_hz``) while the latest is one of
-        them; else the latest window that gives its own split, alone: far from degenerate
-        modes, windows sit at biases between which the model's law misses more than the drift.
+        may be a phantom, ``blind``). The windows near degenerate modes (the least split their
+        fit allows, ``least_split``: :mod:`sysid_core.drift.windows`, under ``near_hz``) while the
+        latest is one of them; else the latest window that gives its own split, alone: far from
+        degenerate modes, windows sit at biases between which the model's law misses more than
+        the drift.
         """
         usable = [
             (w, own, s)
@@ -290,6 +307,12 @@ class Tracker:
         if near and near[-1][0] is self.windows[-1]:
             return near, len(self.windows) - len(usable)
         return [(w, own) for w, own, _ in usable[-1:]], len(self.windows) - len(usable)
+
+    def own_variances(self, chosen: list[tuple[xr.Dataset, FittedModel]]) -> list[float] | None:
+        """The kept variances of ``chosen`` windows, or None where some were not kept."""
+        kept = dict(zip(map(id, self.windows), self.variances, strict=False))
+        found = [kept.get(id(sweep), float("nan")) for sweep, _ in chosen]
+        return None if any(np.isnan(found)) else found
 
     def end_split(self, model: FittedModel, sweep: xr.Dataset) -> tuple[float, float] | None:
         """The split at the end of the latest window by the windows' forecast, or None.
@@ -304,7 +327,9 @@ class Tracker:
             return None
         chosen, _ = self.filtered()
         end = float(stamps(sweep).max())
-        offset, found = windows_forecast(model, model, chosen, end)
+        offset, found = windows_forecast(
+            model, model, chosen, end, own_variances=self.own_variances(chosen)
+        )
         self.at_end = found
         at_end = dataclasses.replace(model, K0=np.asarray(model.K0) + offset)
         bias = np.asarray(sweep.sel(electrode=list(model.electrodes))["bias"].values[0])
@@ -352,17 +377,6 @@ class Tracker:
         return hi
 
 
-def least_split(split_hz: float, own: FittedModel | None) -> float:
-    """The least split a window's own fit allows at 95 %: its interval's lower end.
-
-    ``split_hz`` where the fit states no interval (or there is no fit). What decides whether a
-    window is near degenerate modes (:attr:`Tracker.near_hz`): a window whose noise spans the
-    split cannot be told from one that is.
-    """
-    interval = None if own is None else split_interval(own)
-    return split_hz if interval is None else min(split_hz, float(interval[0]))
-
-
 def noise_said(trend: TrendModel) -> str:
     """What the windows showed beyond the stated trend, in words ("" if nothing)."""
     if trend.window_variance_scale <= 1.0:
@@ -371,27 +385,3 @@ def noise_said(trend: TrendModel) -> str:
         f" (the windows scattering {np.sqrt(trend.window_variance_scale):.2g} times what "
         "their fits state)"
     )
-
-
-#: A fitted mode is measured by a window only if one of its points lies within this many of the
-#: mode's bandwidths (at 3, the mode's own response there is 16 % of its peak).
-SAMPLED_WITHIN = 3.0
-
-
-def blind(sweep: xr.Dataset, evidence: WindowAssessment) -> bool:
-    """Whether a fitted mode lies over :data:`SAMPLED_WITHIN` bandwidths from every point.
-
-    A window that stood too coarse (its split far over the acceptance) may have one of two
-    modes between its points: a window with a step of 2.3-2.6 Hz held one of two modes 16 Hz
-    apart (a 25.8 kHz gyro), and its fit added a mode 4.6 Hz away, 6.7 of its bandwidths from
-    the nearest point. A window that resolves its modes has a point within half a bandwidth of
-    each; on a 1.0 kHz gyro a window that stood with a step of 0.09 Hz had a point within 1.7
-    bandwidths of each mode, and its split (36 mHz) was right.
-    """
-    f = np.asarray(sweep["frequency"].values, dtype=float)
-    modes = np.asarray(evidence.frequencies_hz, dtype=float)
-    bw = np.asarray(evidence.bandwidth_hz, dtype=float)
-    if not f.size or modes.size != bw.size:
-        return False
-    near = np.min(np.abs(f[None, :] - modes[:, None]), axis=1)
-    return bool(np.any(near > SAMPLED_WITHIN * np.where(np.isfinite(bw), bw, np.inf)))

@@ -19,7 +19,8 @@ from truths import degenerate_config, simulate
 
 from sysid_core import tune
 from sysid_core.device.simulation import GyroTruth
-from sysid_core.drift.tracker import Tracker, least_split
+from sysid_core.drift.tracker import Tracker
+from sysid_core.drift.windows import least_split
 from sysid_core.measure.fitter import Fitter
 from sysid_core.measure.verification import Verification
 from sysid_core.model.fitted import FittedModel
@@ -142,7 +143,7 @@ def test_a_mode_that_no_point_came_near_is_blind() -> None:
     bandwidth 0.12 Hz between points 2.6 Hz apart (blind); 523's modes, bandwidths 0.069 and
     0.018 Hz, had points 0.09 Hz apart around them (not blind). A mode whose bandwidth the fit
     could not tell is not called blind."""
-    from sysid_core.drift.tracker import SAMPLED_WITHIN, blind
+    from sysid_core.drift.windows import SAMPLED_WITHIN, blind
     from sysid_core.measure.evidence import WindowAssessment
 
     def window(f: np.ndarray, modes: list[float], bw: list[float]) -> bool:

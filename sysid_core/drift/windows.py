@@ -1,0 +1,57 @@
+"""What one verification window can say of the split, before any filter reads it.
+
+Two judgements of a window kept by :class:`sysid_core.drift.tracker.Tracker`: whether its own
+fit put a mode where none of its points came near (:func:`blind`: that split is not the
+window's to give), and the least split its fit allows at 95 % (:func:`least_split`: a window
+whose noise spans the split cannot be told from one near degenerate modes).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+from sysid_core.measure.evidence import WindowAssessment
+from sysid_core.model.fitted import FittedModel
+from sysid_core.tuning.confidence import split_interval
+
+__all__ = ["SAMPLED_WITHIN", "blind", "least_of", "least_split"]
+
+
+def least_split(split_hz: float, own: FittedModel | None) -> float:
+    """The least split a window's own fit allows at 95 %: its interval's lower end.
+
+    ``split_hz`` where the fit states no interval (or there is no fit). What decides whether a
+    window is near degenerate modes (:attr:`Tracker.near_hz`): a window whose noise spans the
+    split cannot be told from one that is.
+    """
+    return least_of(split_hz, None if own is None else split_interval(own))
+
+
+def least_of(split_hz: float, interval: tuple[float, float] | None) -> float:
+    """:func:`least_split` of a window whose 95 % interval is known (None: none stated)."""
+    return split_hz if interval is None else min(split_hz, float(interval[0]))
+
+
+#: A fitted mode is measured by a window only if one of its points lies within this many of the
+#: mode's bandwidths (at 3, the mode's own response there is 16 % of its peak).
+SAMPLED_WITHIN = 3.0
+
+
+def blind(sweep: xr.Dataset, evidence: WindowAssessment) -> bool:
+    """Whether a fitted mode lies over :data:`SAMPLED_WITHIN` bandwidths from every point.
+
+    A window that stood too coarse (its split far over the acceptance) may have one of two
+    modes between its points: a window with a step of 2.3-2.6 Hz held one of two modes 16 Hz
+    apart (a 25.8 kHz gyro), and its fit added a mode 4.6 Hz away, 6.7 of its bandwidths from
+    the nearest point. A window that resolves its modes has a point within half a bandwidth of
+    each; on a 1.0 kHz gyro a window that stood with a step of 0.09 Hz had a point within 1.7
+    bandwidths of each mode, and its split (36 mHz) was right.
+    """
+    f = np.asarray(sweep["frequency"].values, dtype=float)
+    modes = np.asarray(evidence.frequencies_hz, dtype=float)
+    bw = np.asarray(evidence.bandwidth_hz, dtype=float)
+    if not f.size or modes.size != bw.size:
+        return False
+    near = np.min(np.abs(f[None, :] - modes[:, None]), axis=1)
+    return bool(np.any(near > SAMPLED_WITHIN * np.where(np.isfinite(bw), bw, np.inf)))
