@@ -17,7 +17,14 @@ from typing import Any
 
 from sysid_core.errors import OutputError
 
-__all__ = ["atomic_write", "check_output_file", "current_umask", "write_json"]
+__all__ = [
+    "atomic_write",
+    "check_output_file",
+    "current_umask",
+    "json_line",
+    "json_text",
+    "write_json",
+]
 
 
 def current_umask() -> int:
@@ -100,10 +107,37 @@ def atomic_write(path: str | os.PathLike[str], writer: Callable[[Path], object])
     return path
 
 
-def write_json(path: str | os.PathLike[str], obj: Any) -> Path:
-    """Write ``obj`` as indented JSON, atomically (NaN and infinity are written as ``null``)."""
-    text = json.dumps(_finite(obj), indent=2, sort_keys=False, allow_nan=False) + "\n"
+def write_json(
+    path: str | os.PathLike[str], obj: Any, lines: dict[str, list[str]] | None = None
+) -> Path:
+    """Write ``obj`` as indented JSON, atomically (NaN and infinity are written as ``null``).
+
+    ``lines``: keys to append to ``obj`` (a dict), each a list already encoded one item per
+    line (:func:`json_line`): a long list, such as a run's history, is written without being
+    encoded again.
+    """
+    text = json_text(obj, lines)
     return atomic_write(path, lambda tmp: tmp.write_text(text))
+
+
+def json_line(obj: Any) -> str:
+    """``obj`` as one line of strict JSON (NaN and infinity as ``null``)."""
+    return json.dumps(_finite(obj), allow_nan=False, separators=(", ", ": "))
+
+
+def json_text(obj: Any, lines: dict[str, list[str]] | None = None) -> str:
+    """The text :func:`write_json` writes (indented; ``lines`` as there)."""
+    text = json.dumps(_finite(obj), indent=2, sort_keys=False, allow_nan=False)
+    if lines:
+        if not isinstance(obj, dict) or set(obj) & set(lines):
+            raise ValueError("lines are keys to add to a dict that does not have them")
+        added = [
+            f"  {json.dumps(key)}: "
+            + ("[\n    " + ",\n    ".join(items) + "\n  ]" if items else "[]")
+            for key, items in lines.items()
+        ]
+        text = (text[:-2] + ",\n" if obj else "{\n") + ",\n".join(added) + "\n}"
+    return text + "\n"
 
 
 def _finite(obj: Any) -> Any:

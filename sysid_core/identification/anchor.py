@@ -112,21 +112,21 @@ def anchor(
     rows = []
     for j, sweep in enumerate(sweeps):
         # the electrodes the model has (the others' biases are in its K0)
-        sweep = sweep.sel(electrode=list(model.electrodes))
+        bias = _model_bias(model, sweep)
+        masks = measured_mask(sweep)
         for k in range(sweep.sizes["experiment"]):
             t = point_times(sweep, k)
             if t is None and untimed:
-                t = np.zeros(int(measured_mask(sweep)[k].sum()))
+                t = np.zeros(int(masks[k].sum()))
                 rate = False
             if t is None:
                 raise DataError(
                     f"anchoring sweep {j} has no time stamp at every point: the gyro now needs "
                     "the bench clock (time_s)"
                 )
-            mask = measured_mask(sweep)[k]
-            omega = 2 * np.pi * sweep["frequency"].values[mask]
-            psi = sweep["response"].values[k][mask]
-            rows.append((omega, psi, np.asarray(sweep["bias"].values[k], dtype=float), t))
+            omega = 2 * np.pi * sweep["frequency"].values[masks[k]]
+            psi = sweep["response"].values[k][masks[k]]
+            rows.append((omega, psi, bias[k], t))
     times = np.concatenate([r[3] for r in rows])
     t_ref = float(times.max())
     span = float(np.ptp(times))
@@ -243,6 +243,27 @@ def wald_statistic(a: np.ndarray, y: np.ndarray, x: np.ndarray, t: np.ndarray) -
     return float(value @ np.linalg.pinv(cov) @ value)
 
 
+def _model_bias(model: FittedModel, sweep: xr.Dataset) -> np.ndarray:
+    """The applied bias of each of ``sweep``'s experiments on ``model``'s electrodes (volts).
+
+    ``(experiment, electrode)``, in the model's electrode order; the sweep's other electrodes
+    are left out (their biases are in the model's ``K0``).
+
+    Raises
+    ------
+    DataError
+        If the sweep lacks one of the model's electrodes.
+    """
+    names = [str(e) for e in sweep["electrode"].values]
+    try:
+        index = [names.index(e) for e in model.electrodes]
+    except ValueError:
+        raise DataError(
+            f"a sweep over electrodes {names} lacks one of the model's {list(model.electrodes)}"
+        ) from None
+    return np.asarray(sweep["bias"].values, dtype=float)[:, index]
+
+
 def _deviation(m: np.ndarray, k: np.ndarray) -> tuple[float, np.ndarray]:
     """``t`` and ``d`` of the normalised stiffness ``M^{-1/2} K M^{-1/2}`` ((rad/s)²)."""
     ns = normalised_stiffness(np.asarray(m, dtype=float)[None], np.asarray(k, dtype=float)[None])
@@ -263,8 +284,7 @@ def split_offset(model: FittedModel, sweep: xr.Dataset, window: FittedModel) -> 
     agreed on ``d`` to 0.5 mHz (splits 3.8-5.0 mHz, as true) while the anchored model put
     0.3 mHz there.
     """
-    s = sweep.sel(electrode=list(model.electrodes))
-    bias = np.asarray(s["bias"].values[0], dtype=float)
+    bias = _model_bias(model, sweep)[0]
     m = np.asarray(model.M, dtype=float)
     t_w, d_w = _deviation(window.M, window.stiffness([]))
     t_m, d_m = _deviation(m, model.stiffness(bias))

@@ -13,6 +13,7 @@ estimate of the modes at its bias (from the single-bias fit that judged its evid
 from __future__ import annotations
 
 import copy
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -51,7 +52,7 @@ class Measured:
     data: xr.Dataset
     modes: ModeGuess | None
 
-    @property
+    @functools.cached_property
     def bias(self) -> np.ndarray:
         """The bias it was requested at (every electrode, volts).
 
@@ -76,6 +77,8 @@ class Knowledge:
         self.tuned = list(tuned)
         self.structure_potential = float(structure_potential)
         self.items: list[Measured] = []
+        #: Each sweep's applied bias on the tuned electrodes (what the rank condition reads).
+        self.applied: list[np.ndarray] = []
         #: The epoch the sweeps added now belong to (the run's iteration): a fit with drift
         #: offsets gives each earlier epoch a stiffness offset of its own.
         self.epoch = 1
@@ -92,6 +95,7 @@ class Knowledge:
             modes = guess if guess.usable() else None
         epochs = np.full(sweep.sizes["experiment"], self.epoch, dtype=int)
         self.items.append(Measured(sweep.assign_coords(epoch=("experiment", epochs)), modes))
+        self.applied.append(np.asarray(sweep["bias"].sel(electrode=self.tuned).values, dtype=float))
 
     def __len__(self) -> int:
         """The number of sweeps kept."""
@@ -106,7 +110,11 @@ class Knowledge:
         return any(np.allclose(m.bias, bias, rtol=0, atol=SAME_V) for m in self.items)
 
     def _near(self, bias: np.ndarray, radius: float) -> list[Measured]:
-        return [m for m in self.items if float(np.max(np.abs(m.bias - bias))) <= radius + SAME_V]
+        return [m for m in self.items if self._within(m, bias, radius)]
+
+    @staticmethod
+    def _within(m: Measured, bias: np.ndarray, radius: float) -> bool:
+        return float(np.max(np.abs(m.bias - bias))) <= radius + SAME_V
 
     def near(self, bias: np.ndarray, radius: float) -> xr.Dataset:
         """The sweeps within ``radius`` volts of ``bias`` (every electrode) as one data set.
@@ -122,13 +130,16 @@ class Knowledge:
         ``"auto"`` asks for the quadratic law's rank (a two-sided design), so that the local
         fit can still choose.
         """
-        near = self._near(bias, radius)
+        near = [
+            a
+            for m, a in zip(self.items, self.applied, strict=True)
+            if self._within(m, bias, radius)
+        ]
         if not near:
             return False
-        data = concat_experiments([m.data for m in near]).sel(electrode=self.tuned)
         try:
             check_rank_condition(
-                np.asarray(data["bias"].values),
+                np.concatenate(near),
                 self.structure_potential,
                 self.tuned,
                 quadratic=law != "linear",

@@ -55,7 +55,8 @@ from sysid_core.run.components import build_components
 from sysid_core.run.config import PipelineConfig
 from sysid_core.run.plots import PLOT_FORMATS, plot_bias_path, plot_iteration
 from sysid_core.run.protocols import RunContext, make_protocol
-from sysid_core.run.summary import IterationRecord, Least, RunSummary, summarize, verified_splits
+from sysid_core.run.record import IterationRecord, Least, verified_splits
+from sysid_core.run.summary import RunSummary, summarize
 from sysid_core.run.timeline import plot_timeline
 from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion
 from sysid_core.verdict.answer import Answer, answer
@@ -222,7 +223,7 @@ class TuningRun:
         bias = np.array(self.space.start_bias, dtype=float)
         summary = RunSummary.start(self.config.device.name, bias, self.space, str(self.out))
         history: list[IterationRecord] = []
-        path, regions, split = [bias.tolist()], [], 0.0
+        path, regions, split, seen = [bias.tolist()], [], 0.0, set[tuple[float, ...]]()
         center: float | None = None
         # up to [tuning] max_iterations, or its default (which may change once the clock shows)
         for it in itertools.takewhile(lambda k: k <= self.clock.cap, itertools.count(1)):
@@ -253,7 +254,8 @@ class TuningRun:
             spent = self.clock.spent_s()
             self.clock.budget.ended(spent)
             counts = (self.bench.points, spent)
-            history.append(IterationRecord.of(it, ds, model, step.result, bias, ver, goals, counts))
+            record = IterationRecord.of(it, ds, model, step.result, bias, ver, goals, counts, seen)
+            history.append(record)
             summary = summarize(
                 *(summary, history, ver, goals, converged),
                 bench=self.bench,
@@ -265,7 +267,7 @@ class TuningRun:
             )
             if stop is not None:  # a verdict's reason to stop, like the budget's
                 summary = summary.stopped_by(stop, self.notes, spent, self.bench)
-            write_json(self.out / "summary.json", summary.as_dict())
+            summary.save(self.out / "summary.json")
             self.say(f"iteration {it}: {ver.describe()} ({fit_time:.2f} s to identify)")
             self.say(f"iteration {it}: {self.clock.describe(spent)}")
             self._plot(it, ds, model, ver, step, folder, path, history, regions)
@@ -290,7 +292,7 @@ class TuningRun:
         self.say(self.notes[-1])
         why = f"the bench-time budget of {minutes(self.clock.limit_s)} min is spent"
         ended = summary.stopped_by(why, self.notes, self.clock.spent_s(), self.bench)
-        write_json(self.out / "summary.json", ended.as_dict())
+        ended.save(self.out / "summary.json")
         return ended
 
     # ------------------------------------------------------------------ steps

@@ -7,19 +7,25 @@
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import xarray as xr
 
 from sysid_core.clock.bench import Bench
 from sysid_core.clock.budget import spent_s
+from sysid_core.data.io import write_json
 from sysid_core.measure.verification import Verification
-from sysid_core.model.fitted import FittedModel
-from sysid_core.tuning.confidence import split_interval
-from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion, Goal, TuningResult
+from sysid_core.run.record import (
+    IterationRecord,
+    Least,
+    latest_measured,
+    least_measured,
+    verified_splits,
+)
+from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion, Goal
 from sysid_core.verdict.answer import dac_floor
 
 __all__ = [
@@ -39,69 +45,6 @@ __all__ = [
 CONFIDENCE_KEYS = ("confidence_level", "bias_ci", "split_ci_hz", "frequency_ci_hz")
 #: What the status of a run that did not converge says when the DAC limits its last answer.
 DAC_LIMITS = "the DAC limits it"
-
-
-@dataclass
-class IterationRecord:
-    """What one iteration did.
-
-    ``points``: frequency points measured by the run so far; ``bench_time_s``: the bench time
-    spent by the end of its verification; ``measured_split_ci_hz``: the 95 % interval of the
-    split its verification measured (None without one).
-    """
-
-    iteration: int
-    experiments: list[list[float]]
-    tuning: dict[str, Any]
-    verified_bias: list[float]
-    verification: str
-    measured_split_hz: float | None
-    measured_frequency_hz: float | None
-    measured_frequencies_hz: list[float] | None
-    goals: list[dict[str, Any]]
-    evidence: list[dict[str, Any]]
-    gamma: float
-    fit_time_s: float
-    points: int = 0
-    bench_time_s: float | None = None
-    measured_split_ci_hz: list[float] | None = None
-
-    @classmethod
-    def of(
-        cls,
-        it: int,
-        ds: xr.Dataset,
-        model: FittedModel,
-        result: TuningResult,
-        bias: np.ndarray,
-        ver: Verification,
-        goals: list[Goal],
-        counts: tuple[int, float | None] = (0, None),
-    ) -> IterationRecord:
-        """Iteration ``it``'s record; ``counts``: the run's points and bench time (s) so far."""
-        return cls(
-            iteration=it,
-            experiments=ds["bias"].values.tolist(),
-            tuning=result.as_dict(),
-            verified_bias=bias.tolist(),
-            verification=ver.status,
-            measured_split_hz=ver.split_hz,
-            measured_frequency_hz=ver.frequency_hz,
-            measured_frequencies_hz=None
-            if ver.frequencies_hz is None
-            else [float(x) for x in ver.frequencies_hz],
-            goals=[g.as_dict() for g in goals],
-            evidence=[w.as_dict() for w in ver.windows],
-            gamma=model.gamma,
-            fit_time_s=float(model.facts.fit_time_s or 0.0),
-            measured_split_ci_hz=_interval(ver),
-            points=counts[0],
-            bench_time_s=counts[1],
-        )
-
-    def as_dict(self) -> dict[str, Any]:
-        """JSON-friendly form."""
-        return dict(self.__dict__)
 
 
 @dataclass
@@ -249,6 +192,14 @@ class RunSummary:
             "history": [r.as_dict() for r in self.history],
         }
 
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        """Write :meth:`as_dict` to ``path`` (``summary.json``), atomically.
+
+        Indented, with one line per ``history`` record, each encoded once.
+        """
+        top = {k: v for k, v in self.as_dict().items() if k != "history"}
+        return write_json(path, top, {"history": [r.json for r in self.history]})
+
 
 def status_line(
     it: int,
@@ -357,44 +308,3 @@ def _clock_parts(bench: Bench) -> tuple[dict[str, float] | None, dict[str, float
     if bench.clock_span_s is None:
         return None, None
     return dict(bench.by_purpose), {"settling": bench.settling_s, "acquiring": bench.acquiring_s}
-
-
-def _interval(ver: Verification) -> list[float] | None:
-    """The 95 % interval of the split ``ver`` measured, or None."""
-    if not ver.verified or ver.split_hz is None:
-        return None
-    found = split_interval(ver.model)
-    return None if found is None else [float(found[0]), float(found[1])]
-
-
-#: The least split a verified window of a run measured (Hz) and its bias, or None.
-Least = tuple[float, np.ndarray] | None
-
-
-def least_measured(history: list[IterationRecord]) -> Least:
-    """The least split a verified window of the run measured, with its bias (None before one)."""
-    found = [
-        (float(h.measured_split_hz), np.asarray(h.verified_bias, dtype=float))
-        for h in history
-        if h.verification == "verified"
-        and h.measured_split_hz is not None
-        and np.isfinite(h.measured_split_hz)
-    ]
-    return min(found, key=lambda pair: pair[0]) if found else None
-
-
-def latest_measured(history: list[IterationRecord]) -> Least:
-    """The latest iteration's verified split and its bias, or None (not verified)."""
-    if not history:
-        return None
-    h = history[-1]
-    if h.verification != "verified" or h.measured_split_hz is None:
-        return None
-    if not np.isfinite(h.measured_split_hz):
-        return None
-    return float(h.measured_split_hz), np.asarray(h.verified_bias, dtype=float)
-
-
-def verified_splits(history: list[IterationRecord]) -> tuple[Least, Least]:
-    """:func:`least_measured` and :func:`latest_measured` of ``history``."""
-    return least_measured(history), latest_measured(history)

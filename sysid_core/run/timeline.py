@@ -23,7 +23,7 @@ from sysid_core.verdict.judgement import END_GOAL
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from sysid_core.run.summary import IterationRecord
+    from sysid_core.run.record import IterationRecord
 
 __all__ = ["plot_timeline", "timeline_figure"]
 

@@ -71,6 +71,10 @@ def test_tracking_tunes_a_charging_gyro_that_the_average_model_cannot(tmp_path: 
     assert tracked <= end[0]["value_hz"]  # the bound holds the true split at the end
     assert any("anchored on" in line for line in lines)
     assert (tmp_path / "track2" / "iter03" / "model-now.nc").exists()
+    # the history lists each bias its fits used once, where a fit first used it
+    listed = [tuple(b) for r in summary["history"] for b in r["experiments"]]
+    assert len(listed) == len(set(listed))
+    assert any(r["fitted_experiments"] > len(r["experiments"]) for r in summary["history"][1:])
 
 
 def test_auto_tracks_on_a_bench_with_a_clock_and_not_without_one(tmp_path: Path) -> None:

@@ -30,6 +30,7 @@ from truths import write_toml
 import sysid_core.plugin.registry
 from sysid_core import hookimpl
 from sysid_core.cli import main
+from sysid_core.data.io import json_line
 from sysid_core.data.schema import load_dataset
 from sysid_core.device.measuring import check_bias
 from sysid_core.errors import (
@@ -189,6 +190,11 @@ def test_two_electrodes_from_native_state(tmp_path: Path) -> None:
     saved = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert saved["bias"] == summary.bias and saved["converged"] is True
     assert len(saved["history"]) == summary.iterations
+    assert saved == json.loads(json_line(summary.as_dict()))  # one line per record, same data
+    # each bias a fit used is listed once, by the first record whose fit used it
+    listed = [tuple(b) for h in summary.history for b in h.experiments]
+    assert len(listed) == len(set(listed)) and len(summary.history[0].experiments) == 3
+    assert [h.fitted_experiments for h in summary.history] == [3, 3]  # the local design
     assert not list((tmp_path / "run").glob("*.png"))  # plots=False
 
 
