@@ -203,13 +203,14 @@ PURPOSES = ("design", "verification", "locating", "repeats", "other")
 def purpose_of(name: str) -> str:
     """The purpose of the measurement saved as ``name`` (one of :data:`PURPOSES`).
 
-    ``exp<j>.nc``: the design of an identification; ``verify*.nc``: a verification window;
-    ``*locate*``, ``*probe*`` and ``*-band*``: sweeps that locate the modes; ``*-pass<k>*`` and
-    ``window-again.nc``: a window measured again.
+    ``exp<j>.nc``: the design of an identification (a probe too: it is the design's centre);
+    ``verify*.nc``: a verification window; ``*locate*``, ``*probe*``, ``*-band*`` and
+    ``*-zoom*``: sweeps that locate the modes (a zoom: windows around the modes a failed sweep
+    placed); ``*-pass<k>*`` and ``window-again.nc``: a window measured again.
     """
     if "-pass" in name or name.startswith("window-again"):
         return "repeats"
-    if "locate" in name or "probe" in name or "-band" in name:
+    if any(word in name for word in ("locate", "probe", "-band", "-zoom")):
         return "locating"
     if name.startswith("verify"):
         return "verification"

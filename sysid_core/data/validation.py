@@ -23,11 +23,38 @@ from sysid_core.errors import (
     TooFewExperimentsError,
 )
 
-__all__ = ["MAX_MAGNITUDE", "MIN_MAGNITUDE", "check_rank_condition", "validate"]
+__all__ = [
+    "MAX_MAGNITUDE",
+    "MIN_MAGNITUDE",
+    "check_rank_condition",
+    "design_rank",
+    "validate",
+]
 
 _RANK_TOL = 1e-9
 #: Range of the largest |response| entry of an experiment that the fit's scaling handles.
 MIN_MAGNITUDE, MAX_MAGNITUDE = 1e-100, 1e100
+
+
+def _regressors(w: np.ndarray, quadratic: bool) -> np.ndarray:
+    """The rows ``[1, w, (w²)]`` of the rank condition, centred and scaled column by column."""
+    phi = np.hstack([np.ones((w.shape[0], 1)), w] + ([w**2] if quadratic else []))
+    phi = phi - np.r_[0.0, phi[0, 1:]]  # centred on the first experiment: better conditioned
+    phi[:, 0] = 1.0
+    return phi / np.maximum(np.abs(phi).max(axis=0), 1e-300)
+
+
+def design_rank(
+    bias: np.ndarray | Sequence[Sequence[float]], structure_potential: float, quadratic: bool
+) -> int:
+    """The rank of the rank condition's regressors over ``bias`` (shape ``(n_exp, n_e)``).
+
+    ``n_e + 1`` (``2 n_e + 1`` with ``quadratic``) is what (6) asks for
+    (:func:`check_rank_condition`).
+    """
+    bias = np.atleast_2d(np.asarray(bias, dtype=float))
+    phi = _regressors(squared_potentials(structure_potential, bias), quadratic)
+    return int(np.linalg.matrix_rank(phi, tol=_RANK_TOL * np.sqrt(bias.shape[0])))
 
 
 def check_rank_condition(
@@ -79,10 +106,7 @@ def check_rank_condition(
             )
         )
     w = squared_potentials(structure_potential, bias)
-    phi = np.hstack([np.ones((n_exp, 1)), w] + ([w**2] if quadratic else []))
-    phi = phi - np.r_[0.0, phi[0, 1:]]  # centred on the first experiment: better conditioned
-    phi[:, 0] = 1.0
-    phi = phi / np.maximum(np.abs(phi).max(axis=0), 1e-300)
+    phi = _regressors(w, quadratic)
     if np.linalg.matrix_rank(phi, tol=_RANK_TOL * np.sqrt(n_exp)) == need:
         return
     # Greedy: which experiments do not add to the span of the ones before them?

@@ -53,7 +53,8 @@ from sysid_core.tuning.confidence import split_interval
 __all__ = ["NEAR_ACCEPTANCES", "RICE_95", "Tracker"]
 
 #: Measures, saves and judges a sweep: ``(bias, frequencies, path, band)`` to ``(sweep, its
-#: single-bias model, evidence)`` (the protocol's :meth:`~sysid_core.run.protocols.Protocol.sweep`).
+#: single-bias model, evidence)``
+#: (the protocol's :meth:`~sysid_core.run.protocol_base.Protocol.sweep`).
 Sweep = Callable[
     [np.ndarray, np.ndarray, Path, bool], tuple[xr.Dataset, FittedModel, WindowAssessment]
 ]

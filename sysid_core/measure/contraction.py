@@ -14,7 +14,7 @@ experiments of eq. (18) around the bias that are not measured yet) costs its swe
 one verification after them. :func:`too_slow` says when the design is the cheaper way to the
 acceptance (``n`` verifications cost more than the design and one verification), when the rate
 would not reach it in the iterations the budget leaves, or when the split did not fall at all;
-the run then measures the local design (:class:`~sysid_core.run.protocols.LeanProtocol`, and a
+the run then measures the local design (:class:`~sysid_core.run.lean_protocol.LeanProtocol`, and a
 run from a previous model, :class:`~sysid_core.measure.previous.PreviousModel`). Otherwise it
 fits every sweep again and verifies the next answer: a model whose answers contract fast
 (``r`` of a few percent) is not paid a design it does not need. The rate assumes the sweeps

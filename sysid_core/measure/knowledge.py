@@ -26,7 +26,7 @@ from sysid_core.data.schema import (
     requested_bias,
     squared_potentials,
 )
-from sysid_core.data.validation import check_rank_condition
+from sysid_core.data.validation import check_rank_condition, design_rank
 from sysid_core.errors import SysidError
 from sysid_core.measure.evidence import WindowAssessment
 from sysid_core.measure.lean import ModeGuess
@@ -147,6 +147,35 @@ class Knowledge:
         except SysidError:
             return False
         return True
+
+    def completing(
+        self, bias: np.ndarray, radius: float, law: str, design: np.ndarray, index: Sequence[int]
+    ) -> list[int]:
+        """The rows of ``design`` to measure so that the sweeps near ``bias`` meet (6).
+
+        What :meth:`meets_rank` asks for, reached with the fewest new sweeps: the rows are taken
+        in order, each only if it raises the rank of the sweeps near ``bias`` and the rows
+        taken before it, until the rank is full. A sweep measured a few tenths of a volt away
+        tells the local law what a new one at the design's bias would; only what the near
+        sweeps lack is measured. ``index``: the tuned electrodes' columns of ``design`` (and of
+        every sweep's requested bias).
+        """
+        vg, quadratic = self.structure_potential, law != "linear"
+        # requested biases on both sides: a DAC's few LSBs would count as levels of their own
+        rows = [m.bias[list(index)][None, :] for m in self._near(bias, radius)]
+        need = (2 if quadratic else 1) * len(self.tuned) + 1
+        rank = design_rank(np.concatenate(rows), vg, quadratic) if rows else 0
+        taken: list[int] = []
+        for j, b in enumerate(design):
+            if rank >= need:
+                break
+            if self.has(b):
+                continue
+            trial = np.concatenate([*rows, np.asarray(b, dtype=float)[list(index)][None, :]])
+            if (r := design_rank(trial, vg, quadratic)) > rank:
+                rows, rank = [trial], r
+                taken.append(j)
+        return taken
 
     def split_at(self, bias: np.ndarray) -> float | None:
         """The split of the first sweep at ``bias`` that located both modes (Hz), or None."""

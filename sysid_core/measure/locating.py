@@ -11,7 +11,9 @@ dwell per acquisition, :func:`probe_first`), or with ``probe = true``, the run m
 first, every third point of the locating sweep (:func:`probe_points`: 21 of 61), and keeps it as
 the locating sweep when it shows both modes and its measured noise is under :data:`QUIET_NOISE` of
 its response (:func:`bench_noise`): the bench is then *quiet*. Otherwise the whole locating sweep
-follows at the same bias, as without a probe, and the probe is kept with every other sweep. The
+follows at the same bias, as without a probe, and the probe is kept with every other sweep; a
+probe whose fit failed is first followed by windows around the modes it placed, as a failed
+locating sweep is (:mod:`sysid_core.measure.zoom`), when they take fewer points. The
 same measurement decides the first design (:meth:`~sysid_core.run.context.RunContext.design`): on a
 quiet bench, under the ``auto`` stiffness law, the first design is one-sided (``n + 1`` biases),
 the designs after it two-sided; and scouts step as the probe did.
@@ -127,28 +129,33 @@ def locate(
     the modes closer, and its windows cost a few dozen points where the next fallback costs
     hundreds or thousands.
     ``probe``: measured first, as ``path`` itself; it ends the search if it shows both modes
-    and the bench is quiet (:data:`QUIET_NOISE`), else the tries follow. The return says
+    and the bench is quiet (:data:`QUIET_NOISE`), else the tries follow; one that does not show
+    them is followed first by windows around the modes its fit placed, when they take fewer
+    points than the first try (:func:`~sysid_core.measure.zoom.zoom_grid`). The return says
     whether the first sweep measured showed both modes on a quiet bench; without a probe it
     is judged only if ``judge`` (the run's first look at the band), else False.
     """
     if probe is not None:
         data, model, evidence = sweep(probe, path, True)
         noise = bench_noise(data, model)
-        if evidence.ok and noise < QUIET_NOISE:
+        if evidence.ok:
+            quiet = noise < QUIET_NOISE
             say(
                 f"{path.parent.name}/{path.name}: a probe of {probe.size} points over the band "
-                f"shows both modes, its noise {noise:.2%} of the response: a quiet bench; it "
-                "stands as the locating sweep"
+                f"shows both modes and stands as the locating sweep; its noise is {noise:.2%} "
+                f"of the response: {'a quiet' if quiet else 'not a quiet'} bench"
             )
-            return True
-        why = (
-            f"its noise is {noise:.1%} of the response, over the {QUIET_NOISE:.0%} of a quiet bench"
-            if evidence.ok
-            else f"it does not show both modes: {evidence.failures()}"
-        )
+            return quiet
+        why = f"it does not show both modes: {evidence.failures()}"
+        then = "measuring the locating band"
+        zoom = zoom_grid(probe, evidence, plan, tries[0][1].size)
+        if zoom is not None:  # windows around the modes it placed, if cheaper than the band
+            tries.insert(0, ("-zoom", zoom))
+            f = evidence.frequencies_hz
+            then = f"windows around {f[0]:.3f} / {f[1]:.3f} Hz first"
         say(
             f"{path.parent.name}/{path.name}: a probe of {probe.size} points over the band; "
-            f"{why}; measuring the locating band"
+            f"{why}; {then}"
         )
     done: list[np.ndarray] = []
     names: list[str] = []

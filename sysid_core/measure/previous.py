@@ -9,7 +9,7 @@ sweep) instead of locating the modes over the band and measuring a design. Each 
 measures only its verification, while every verified split is at most
 :data:`PRIOR_CONTRACTION` of the one before and, shrinking at that rate, would reach the
 acceptance within the iterations left; once one is not, or a verification fails, the run
-goes on as one without a model (:class:`~sysid_core.run.protocols.LeanProtocol`).
+goes on as one without a model (:class:`~sysid_core.run.lean_protocol.LeanProtocol`).
 """
 
 from __future__ import annotations

@@ -5,130 +5,40 @@ A protocol decides what each iteration measures and fits, and how it verifies an
 * :class:`FullProtocol` (``[experiment] protocol = "full"``): the paper's; every iteration
   measures the design of eq. (18) over the band (then a window around the modes the previous
   verification measured) and fits it alone.
-* :class:`LeanProtocol` (the default): points where the modes are; every sweep is kept
-  (:class:`~sysid_core.measure.knowledge.Knowledge`) and fitted again while the verifications agree
-  with the model of all of them, the sweeps near the bias once they do not
-  (:mod:`sysid_core.measure.lean`).
+* :class:`~sysid_core.run.lean_protocol.LeanProtocol` (the default, in
+  :mod:`sysid_core.run.lean_protocol`): points where the modes are; every sweep is kept and
+  fitted again while the verifications agree with the model of all of them, the sweeps near
+  the bias once they do not.
 
-Both share :class:`RunContext`: the bench, the fitter, the sweeps' plan, the experiment design
-and the progress callback.
+Both are :class:`~sysid_core.run.protocol_base.Protocol` and share :class:`RunContext`: the
+bench, the fitter, the sweeps' plan, the experiment design and the progress callback.
 """
 
 from __future__ import annotations
 
-from abc import ABC, abstractmethod
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
-from sysid_core.clock.benchtime import settle as settle_s
-from sysid_core.clock.runclock import stamps_span_s
-from sysid_core.data.schema import concat_experiments, point_times
-from sysid_core.errors import ConfigError, SysidError
-from sysid_core.measure.contraction import Costs, aged, too_slow
-from sysid_core.measure.evidence import WindowAssessment
-from sysid_core.measure.knowledge import Knowledge
-from sysid_core.measure.lean import (
-    FINE_STEP,
-    LOCAL_RADIUS,
-    ModeGuess,
-    explained_gap,
-    following,
-    locate_plan,
-    mode_grid,
-    scout_grid,
-)
-from sysid_core.measure.locating import locate as locate_modes
-from sysid_core.measure.locating import probe_first, probe_points
-from sysid_core.measure.motion import motion_allowance
-from sysid_core.measure.passes import repeat_window
-from sysid_core.measure.previous import PreviousModel
-from sysid_core.measure.sweeps import SweepPlan
-from sysid_core.measure.verification import COARSE_ENOUGH, Verification, Window, modes_at, verify
+from sysid_core.data.schema import concat_experiments
+from sysid_core.errors import ConfigError
+from sysid_core.measure.verification import Verification
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.context import RunContext
+from sysid_core.run.lean_protocol import LeanProtocol
+from sysid_core.run.protocol_base import Found, Prefit, Protocol
 from sysid_core.tuning.criteria import TuningResult
 
-__all__ = ["FullProtocol", "LeanProtocol", "Prefit", "Protocol", "RunContext", "make_protocol"]
-
-#: A fit already made of the data an iteration will fit: the data, the model, its notes.
-Prefit = tuple[xr.Dataset, FittedModel, list[str]]
-#: One sweep's data, its single-bias model and its evidence.
-Found = tuple[xr.Dataset, FittedModel, WindowAssessment]
-
-
-class Protocol(ABC):
-    """What an iteration measures and fits, and how it verifies; one per run."""
-
-    #: The latest iteration fitted only the sweeps near its bias (answers hold only near them).
-    local = False
-
-    def __init__(self, ctx: RunContext) -> None:
-        self.ctx = ctx
-
-    @abstractmethod
-    def data(
-        self, it: int, bias: np.ndarray, folder: Path, center_hz: float | None, split_hz: float
-    ) -> tuple[xr.Dataset, Prefit | None]:
-        """The data iteration ``it`` fits (measured into ``folder`` as needed), and a prior fit.
-
-        The fit is there if one was already made of exactly that data (else None).
-        """
-
-    @abstractmethod
-    def verify(
-        self, bias: np.ndarray, predicted: TuningResult, model: FittedModel, folder: Path
-    ) -> Verification:
-        """Step 4 at ``bias``, with evidence (:func:`sysid_core.measure.verification.verify`)."""
-
-    def every_sweep(self, it: int, bias: np.ndarray) -> xr.Dataset | None:
-        """Every sweep so far, if iteration ``it`` fitted fewer (None: it fitted them all)."""
-        return None
-
-    def learned(self, moved: bool, bias: np.ndarray, ver: Verification) -> None:
-        """Keep what the iteration ended with (the lean protocol does; the full one, nothing).
-
-        A move to the best reachable bias, the bias verified, its verification.
-        """
-        return None
-
-    def sweep(
-        self, bias: np.ndarray, freqs: np.ndarray, path: Path, band: bool, enough: float = np.inf
-    ) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
-        """One sweep at ``bias``, its own model and the evidence that it shows both modes.
-
-        A narrow window that shows both modes but whose noise hides the split is measured again
-        and averaged (:mod:`sysid_core.measure.passes`); every pass is saved (``-pass2.nc``, ...).
-        A window too coarse but with a split over ``enough`` (Hz) stands
-        (:meth:`~sysid_core.measure.evidence.WindowAssessment.enough`).
-        """
-        sweep = self.ctx.bench.measure(bias, freqs, path)
-        model, evidence = self.ctx.fitter.window(sweep, band)
-        evidence = evidence.enough(enough)
-        if band or not evidence.ok:
-            return sweep, model, evidence
-        ctx, first = self.ctx, (sweep, model, evidence)
-        return repeat_window(ctx.bench, ctx.fitter, ctx.passes, ctx.say, bias, freqs, path, first)
-
-    def _verify_with(
-        self,
-        bias: np.ndarray,
-        predicted: TuningResult,
-        model: FittedModel,
-        folder: Path,
-        plan: SweepPlan,
-        lean: Window | None = None,
-    ) -> Verification:
-        enough = COARSE_ENOUGH * self.ctx.config.tuning.acceptance_hz
-
-        def sweep(
-            freqs: np.ndarray, name: str, band: bool
-        ) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
-            return self.sweep(bias, freqs, folder / name, band, enough)
-
-        modes = modes_at(model, bias[self.ctx.space.index])
-        return verify(modes, predicted, plan, sweep, self.ctx.say, lean=lean)
+__all__ = [
+    "Found",
+    "FullProtocol",
+    "LeanProtocol",
+    "Prefit",
+    "Protocol",
+    "RunContext",
+    "make_protocol",
+]
 
 
 class FullProtocol(Protocol):
@@ -154,235 +64,6 @@ class FullProtocol(Protocol):
     ) -> Verification:
         """Step 4 at ``bias`` with the run's own sweep plan."""
         return self._verify_with(bias, predicted, model, folder, self.ctx.plan)
-
-
-class LeanProtocol(Protocol):
-    """Points where the modes are, every sweep kept (see the module).
-
-    Later iterations fit every sweep while the last verification agrees with the model
-    (:meth:`_design_now`); after that, or a move to the best reachable bias, the sweeps
-    near the bias, measuring the local design wherever they do not meet the rank condition.
-    """
-
-    def __init__(self, ctx: RunContext, prior: FittedModel | None = None) -> None:
-        super().__init__(ctx)
-        #: A previous model of the gyro (``--from-model``): while its answers contract the
-        #: split, it is anchored on the latest sweeps instead of measuring designs.
-        self.previous = PreviousModel.given(prior, ctx.config.tuning.acceptance_hz)
-        self.known = Knowledge(ctx.space.tuned, ctx.space.structure_potential)
-        self.locate_plan = locate_plan(ctx.plan, ctx.config.experiment.locate_points)
-        self.local = False
-        self.moved = False
-        self.last_verified: tuple[np.ndarray, np.ndarray] | None = None
-        self.splits: list[float] = []  # every verified split, in order
-        #: The split located where the run started (the rate of its first answer), and the
-        #: points of each sweep of the latest verification (what one costs).
-        self.start_split: float | None = None
-        self.verify_points: list[int] = []
-        #: With ``probe``, the run's first look at the band is a probe
-        #: (:mod:`sysid_core.measure.locating`); whether it found the bench quiet decides the first
-        #: design.
-        self.quiet, self.scout_plan = False, self.locate_plan
-
-    def data(
-        self, it: int, bias: np.ndarray, folder: Path, center_hz: float | None, split_hz: float
-    ) -> tuple[xr.Dataset, Prefit | None]:
-        """Every sweep so far, or the sweeps near ``bias`` (see :class:`LeanProtocol`).
-
-        The local design is measured where the sweeps near ``bias`` do not meet the rank
-        condition; iteration 1 measures the design where the modes should be.
-        """
-        ctx = self.ctx
-        self.known.begin(it)
-        if self.previous is not None:
-            return self._from_previous(it, bias, folder)
-        if it > 1 and self.moved:
-            self.local = True
-            ctx.say(
-                f"iteration {it}: the last answer moved the run (to the best reachable bias, or "
-                "back to the least measured split's); measuring the local design there"
-            )
-        elif it > 1 and not self.local:
-            why, prefit = self._design_now(it)
-            if why is None:
-                ctx.say(f"iteration {it}: fitting all {len(self.known)} sweeps so far")
-                return (prefit[0], prefit) if prefit is not None else (self.known.union(), None)
-            self.local = True
-            ctx.say(f"iteration {it}: {why}; fitting the sweeps near the bias from now on")
-        radius = LOCAL_RADIUS * ctx.step(it)
-        if it == 1 and not self.known.has(bias):  # the centre first: is the bench quiet?
-            self._learn(bias, folder / "exp0.nc")
-        if it == 1 or not self.known.meets_rank(bias, radius, ctx.config.model.stiffness):
-            for j, b in enumerate(ctx.design(bias, it, quiet=self.quiet and it == 1)):
-                if not self.known.has(b):
-                    self._learn(b, folder / f"exp{j}.nc")
-        if it == 1:
-            self.start_split = self.known.split_at(bias)
-            ctx.say(
-                f"iteration {it}: fitting {ctx.fitter.structure.name} model to "
-                f"{len(self.known)} sweeps"
-            )
-            return self.known.union(), None
-        return self.known.near(bias, radius), None
-
-    def every_sweep(self, it: int, bias: np.ndarray) -> xr.Dataset | None:
-        """Every sweep so far, if the run fits only the sweeps near ``bias`` (and there are more).
-
-        A local fit that finds the goal unreachable extrapolates from a few tenths of a volt;
-        the sweeps of the whole run may span the answer.
-        """
-        if not self.local or self.previous is not None:
-            return None
-        near = self.known.near(bias, LOCAL_RADIUS * self.ctx.step(it))
-        every = self.known.union()
-        return every if every.sizes["experiment"] > near.sizes["experiment"] else None
-
-    def verify(
-        self, bias: np.ndarray, predicted: TuningResult, model: FittedModel, folder: Path
-    ) -> Verification:
-        """Step 4 at ``bias``, locating the modes with grids around the predicted ones."""
-        modes = modes_at(model, bias[self.ctx.space.index])
-        if modes is None:  # no oscillating modes at the answer: the band locates them
-            return self._verify_with(bias, predicted, model, folder, self.locate_plan)
-        bw = modes.bandwidth_hz
-        if not np.all(np.isfinite(bw) & (bw > 0)):
-            bw = np.full(2, self.ctx.plan.verify_resolution_hz)
-        exp, ppm = self.ctx.config.experiment, self.ctx.plan.motion_ppm_per_h
-        settle = settle_s(self.ctx.bench.device.capabilities, exp.settle_s, model)[0] or 0.0
-        centre, sigma = self.known.centre(bias, self.ctx.space.index, predicted, model, settle, ppm)
-
-        def window(
-            center: float, split: float, around_prediction: bool, seen: np.ndarray | None
-        ) -> np.ndarray:
-            if around_prediction:
-                center, uncertainty = centre, sigma
-            else:  # modes the last sweep found: they may have moved since (a clock's drift)
-                last = self.known.items[-1].data
-                uncertainty = motion_allowance(center, point_times(last, 0), settle, ppm)
-            guess = ModeGuess.of([center - split / 2, center + split / 2], bw, uncertainty)
-            if around_prediction:
-                return mode_grid(guess, self.ctx.plan, resolve=True)
-            finest = None  # a second fine window resolves what the first one's fit measured
-            if seen is not None and np.all(np.isfinite(seen)):
-                narrowest = float(np.min(bw))
-                finest = FINE_STEP * max(min(narrowest, float(np.min(seen))), narrowest / 4)
-            return mode_grid(guess, self.ctx.plan, resolve=True, fine=True, finest_hz=finest)
-
-        before = len(self.known)
-        ver = self._verify_with(bias, predicted, model, folder, self.locate_plan, window)
-        self.verify_points = [int(m.data.sizes["frequency"]) for m in self.known.items[before:]]
-        return ver
-
-    def learned(self, moved: bool, bias: np.ndarray, ver: Verification) -> None:
-        """Keep whether the run moved, and the verified bias and modes if verified."""
-        self.moved = moved
-        if ver.verified and ver.frequencies_hz is not None:
-            self.last_verified = (bias.copy(), np.asarray(ver.frequencies_hz, dtype=float))
-            self.splits.append(float(ver.split_hz or 0.0))
-        if self.previous is not None:
-            why = self.previous.judge(ver, self.ctx.left())
-            if why is not None:
-                self.ctx.say(f"{why}; measuring the local design from now on")
-                self.previous, self.local = None, True
-
-    def _from_previous(
-        self, it: int, bias: np.ndarray, folder: Path
-    ) -> tuple[xr.Dataset, Prefit | None]:
-        """The previous model anchored on the latest sweeps (:mod:`sysid_core.measure.previous`).
-
-        Iteration 1 measures one mode grid at ``bias`` around the modes the model predicts
-        there (no locating sweep, no design); later ones anchor on the verification windows.
-        """
-        assert self.previous is not None
-        ctx = self.ctx
-        if it == 1:
-            first = self.previous.first_grid(bias[ctx.space.index], ctx.plan)
-            self._learn(bias, folder / "exp0.nc", first=first)
-            self.previous.windows.append(self.known.items[-1].data)
-        caps, exp = ctx.bench.device.capabilities, ctx.config.experiment
-        ds, model, sweeps = self.previous.anchored(settle_s(caps, exp.settle_s)[0] or 0.0)
-        ctx.say(f"iteration {it}: the model given anchored on {sweeps} sweep(s), no design")
-        return ds, (ds, model, [])
-
-    def sweep(
-        self, bias: np.ndarray, freqs: np.ndarray, path: Path, band: bool, enough: float = np.inf
-    ) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
-        """One sweep at ``bias`` as :meth:`Protocol.sweep`, kept with the modes it shows."""
-        found = super().sweep(bias, freqs, path, band, enough)
-        self.known.add(found[0], found[2])
-        return found
-
-    def _design_now(self, it: int) -> tuple[str | None, Prefit | None]:
-        """Why the run measures the local design now, or None (it verifies the next answer).
-
-        Verifying alone must be the quicker way to the acceptance at the rate the split fell,
-        priced on the bench clock (:func:`~sysid_core.measure.contraction.too_slow`); on a
-        tracked run the sweeps must not be :func:`~sysid_core.measure.contraction.aged`; on
-        another the model of all sweeps must reproduce the verified modes
-        (:func:`~sysid_core.measure.lean.explained_gap`). With None comes the fit of all sweeps.
-        """
-        if self.last_verified is None:
-            return None, None
-        (vb, vf), ctx = self.last_verified, self.ctx
-        last = self.splits[-2] if len(self.splits) > 1 else self.start_split
-        try:  # the local design's sweeps not measured yet, priced like the verification's
-            missing = sum(not self.known.has(b) for b in ctx.design(vb, it))
-            costs = Costs.of(ctx.cost_s, self.verify_points, missing)
-        except SysidError:  # no local design there: the rate alone decides
-            costs = None
-        split, union, tracking = float(vf[1] - vf[0]), self.known.union(), ctx.tracking
-        why = too_slow(last, split, ctx.left(), ctx.config.tuning.acceptance_hz, costs)
-        if why or (tracking and (why := aged(stamps_span_s(union)))):
-            return why, None
-        model, notes = ctx.fitter.fit(union)
-        f = model.modal(vb[ctx.space.index]).frequencies_hz
-        if tracking or (gap := explained_gap(f, vf)) is None:
-            return None, (union, model, notes)
-        n = len(self.known)
-        return f"a model of all {n} sweeps misses the verified modes by {gap * 1e3:.3g} mHz", None
-
-    def _learn(self, bias: np.ndarray, path: Path, first: np.ndarray | None = None) -> None:
-        """Measure one identification experiment where its modes should be (``first``: here).
-
-        The band, a scout or a mode grid (:mod:`sysid_core.measure.lean`); one without both modes
-        is followed by the locating band, one four times as dense and the band at
-        ``resolution_hz``, each failed whole-band sweep first by windows (``measure.zoom``).
-        With ``[experiment] probe``, the run's first look at the band is a probe of a third of
-        its points, which also says whether the bench is quiet (:mod:`sysid_core.measure.locating`).
-        """
-        ctx, points = self.ctx, self.ctx.config.experiment.locate_points
-        guess, scout = self.known.guess(bias, ctx.fitter.structure, ctx.fitter.model)
-        plan = ctx.plan if guess is None else following(ctx.plan, guess)  # bands follow modes
-        locate = (self.locate_plan if plan is ctx.plan else locate_plan(plan, points)).band()
-        if first is None and guess is None:
-            first = locate
-        elif first is None and scout:
-            assert guess is not None
-            grid = scout_grid(guess, self.scout_plan)
-            first = locate if grid.size >= locate.size else grid
-        elif first is None:
-            assert guess is not None
-            first = mode_grid(guess, ctx.plan)
-        denser = locate_plan(plan, 4 * (points - 1) + 1).band()
-        probe, probing = None, locate_plan(plan, probe_points(points))
-        # the run's first look at the band, on a bench that may be quiet
-        setting, caps = ctx.config.experiment.probe, ctx.bench.device.capabilities
-        looked = first is locate and not len(self.known) and probe_first(setting, caps)
-        if looked:
-            probe = probing.band()
-            probe = probe if probe.size < locate.size else None
-        tries = [("-locate", locate), ("-locate4", denser), ("-band", plan.band())]
-        if probe is None:
-            tries.insert(0, ("", first))
-
-        def sweep(freqs: np.ndarray, at: Path, band: bool) -> Found:
-            return self.sweep(bias, freqs, at, band)
-
-        quiet = locate_modes(sweep, ctx.say, path, tries, plan, denser.size, probe, looked)
-        if looked:  # it decides the first design
-            self.quiet = quiet
-        if probe is not None and quiet:  # scouts too can locate modes with the probe's step
-            self.scout_plan = probing
 
 
 def make_protocol(ctx: RunContext, prior: FittedModel | None = None) -> Protocol:

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from sysid_cloverleaf import CloverleafGyro
 
-from sysid_core.clock.bench import Bench
+from sysid_core.clock.bench import Bench, purpose_of
 from sysid_core.clock.runfolder import RunFolder
 from sysid_core.data.schema import load_dataset
 from sysid_core.device.measuring import GuardedDevice
@@ -88,3 +88,22 @@ def test_a_refused_measurement_touches_neither_the_device_nor_the_folder(tmp_pat
         b.measure(ZERO, F, tmp_path / "iter01" / "exp0.nc")
     assert Counting.calls == 0 and not (tmp_path / "iter01" / "exp0.nc").exists()
     assert b.measurements == 0
+
+
+@pytest.mark.parametrize(
+    ("name", "purpose"),
+    [
+        ("exp0.nc", "design"),  # a probe too: it is the first design sweep
+        ("exp3.nc", "design"),
+        ("exp0-locate.nc", "locating"),
+        ("exp0-zoom.nc", "locating"),  # windows around the modes a failed sweep placed
+        ("exp2-zoom2.nc", "locating"),
+        ("exp1-band.nc", "locating"),
+        ("verify-fine.nc", "verification"),
+        ("verify-pass2.nc", "repeats"),
+        ("window-again.nc", "repeats"),
+        ("model.nc", "other"),
+    ],
+)
+def test_a_measurement_counts_for_what_its_file_says(name: str, purpose: str) -> None:
+    assert purpose_of(name) == purpose

@@ -56,13 +56,23 @@ def run(
     return float(f[1] - f[0]), summary, lines
 
 
-def test_tracking_tunes_a_charging_gyro_that_the_average_model_cannot(tmp_path: Path) -> None:
-    """Measured: without tracking 3.5 mHz at the end (5.6 mHz, stuck at 5-6 mHz from the 4th
-    iteration on, before the stiffness law's test left out the common part); with it,
-    converged under the acceptance, on the windows' forecast of the split at the end."""
-    still, _, _ = run(tmp_path, "none")
+def test_tracking_tunes_charging_gyros_that_the_average_model_cannot(tmp_path: Path) -> None:
+    """Random gyros 2-9 on the same lab, 8 iterations. Measured (true split at the end, mHz):
+    without tracking 0.94-13.7, median 3.5 (5 of 8 over the acceptance); with it 0.61-6.3,
+    median 1.1. One gyro is one draw of the lab (gyro 2 ends at 1.8 mHz untracked, 0.8
+    tracked), so the claim is on the medians."""
+    still = [run(tmp_path, "none", seed=seed)[0] for seed in range(2, 10)]
+    tracked = [run(tmp_path, "track", seed=seed)[0] for seed in range(2, 10)]
+    assert np.median(tracked) < ACCEPTANCE
+    assert np.median(still) > 2 * np.median(tracked)
+
+
+def test_a_tracked_run_converges_on_its_forecast_and_lists_each_bias_once(
+    tmp_path: Path,
+) -> None:
+    """Gyro 2: converged under the acceptance, on the windows' forecast of the split at the
+    end, which bounds the true split there."""
     tracked, summary, lines = run(tmp_path, "track")
-    assert still > 1.5 * ACCEPTANCE
     assert tracked < ACCEPTANCE
     assert summary["converged"]
     # a tracked run converges on its windows' forecast of the split at the end, at 95 %

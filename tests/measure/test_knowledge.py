@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from sysid_cloverleaf import CloverleafGyro
 
 from sysid_core.data import experiment_from_measurement
@@ -102,3 +104,55 @@ def test_without_located_modes_a_window_is_centred_on_the_answer() -> None:
     )
     centre, sigma = known.centre(np.zeros(3), [0, 1], predicted, None, 10.0, 60.0)  # type: ignore[arg-type]
     assert centre == predicted.frequency_hz and sigma == 0.0  # no region: no uncertainty said
+
+
+def _known_at(gyro: CloverleafGyro, biases) -> Knowledge:
+    known = Knowledge(TUNED, 15.58)
+    for b in biases:
+        known.add(sweep(gyro, np.asarray(b, dtype=float)), None)
+    return known
+
+
+def _step_design(bias: np.ndarray) -> np.ndarray:
+    return design_experiments(bias, [0, 1], 0.25, (-10.0, 10.0), two_sided=True)
+
+
+def test_a_local_design_measures_only_what_the_sweeps_near_the_bias_lack() -> None:
+    gyro = CloverleafGyro(seed=1)
+    old = _step_design(np.array([1.0, 1.0, 0.0]))  # the previous local design, ±0.25 V
+    new = np.array([1.3, 1.3, 0.0])  # the next answer, verified there
+    known = _known_at(gyro, [*old, new])
+    # near (within 0.375 V): the old centre, its upward steps and the verification: rank 4 of 5
+    assert not known.meets_rank(new, 0.375, "auto")
+    design = _step_design(new)
+    todo = known.completing(new, 0.375, "auto", design, [0, 1])
+    assert todo == [1]  # one sweep (B1 up) completes the rank, not the four of the design
+    known.add(sweep(gyro, design[1]), None)
+    assert known.meets_rank(new, 0.375, "auto")
+    # a move beyond the radius keeps nothing near but the verification: the whole design
+    far = np.array([2.5, 2.5, 0.0])
+    known = _known_at(gyro, [*old, far])
+    assert known.completing(far, 0.375, "auto", _step_design(far), [0, 1]) == [1, 2, 3, 4]
+    # sweeps that already meet the rank ask for nothing
+    known = _known_at(gyro, old)
+    assert known.completing(old[0], 0.375, "auto", old, [0, 1]) == []
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    move=st.tuples(st.floats(-0.6, 0.6, allow_nan=False), st.floats(-0.6, 0.6, allow_nan=False)),
+    law=st.sampled_from(["auto", "linear"]),
+)
+def test_what_completing_asks_for_meets_the_rank_with_no_more_sweeps(move, law) -> None:
+    """Property: measuring the rows it names makes the sweeps near the bias meet (6), and they
+    are never more than the design's own steps."""
+    gyro = CloverleafGyro(seed=1)
+    old = _step_design(np.array([1.0, 1.0, 0.0]))
+    new = np.array([1.0 + move[0], 1.0 + move[1], 0.0])
+    known = _known_at(gyro, [*old, new])
+    design = _step_design(new)
+    todo = known.completing(new, 0.375, law, design, [0, 1])
+    assert len(todo) <= len(design) - 1 and 0 not in todo  # the centre is known
+    for j in todo:
+        known.add(sweep(gyro, design[j]), None)
+    assert known.meets_rank(new, 0.375, law)

@@ -43,6 +43,31 @@ def test_a_narrow_mode_gyro_is_located_by_windows_not_by_a_denser_band(tmp_path:
     assert said and "; windows around 14" in said[0]
 
 
+def test_a_probe_that_misses_narrow_modes_is_followed_by_windows_not_the_band(
+    tmp_path: Path,
+) -> None:
+    """The same gyro with a probe first (``probe = true``): its 21 points step 5 Hz and its fit
+    fails; windows around the modes it placed (cheaper than the 61-point locating band) show
+    them. Measured: no locating band at all, a true split of 0.33 mHz in 349 points."""
+    device = get_registry().device("random-gyro", seed=112, noise=1e-3)
+    config = degenerate_config(
+        device,
+        {"seed": 112, "noise": 1e-3},
+        iterations=4,
+        model={"structure": device.structure},
+        experiment={"probe": True},
+    )
+    out = tmp_path / "run"
+    lines: list[str] = []
+    result = tune(config, out, device=device, plots=False, progress=lines.append)
+    assert (out / "iter01" / "exp0-zoom.nc").exists()
+    assert not list(out.glob("iter01/*locate*.nc"))
+    f = device.true_modal_frequencies_hz(result.bias)
+    assert f[1] - f[0] <= ACCEPTANCE
+    said = [line for line in lines if "exp0.nc: a probe of 21 points" in line]
+    assert said and "; windows around 148" in said[0] and said[0].endswith("first")
+
+
 def _plan() -> SweepPlan:
     return SweepPlan(
         band_hz=(1438.5, 1538.2),

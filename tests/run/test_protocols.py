@@ -19,8 +19,9 @@ from truths import cloverleaf_config
 from sysid_core.data.schema import measured_mask
 from sysid_core.data.validation import check_rank_condition
 from sysid_core.run.config import parse_config
+from sysid_core.run.lean_protocol import LeanProtocol
 from sysid_core.run.pipeline import TuningRun
-from sysid_core.run.protocols import FullProtocol, LeanProtocol
+from sysid_core.run.protocols import FullProtocol
 from sysid_core.tuning.criteria import solve_criterion
 
 
