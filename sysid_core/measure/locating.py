@@ -1,36 +1,36 @@
-"""Locating the modes: a coarse probe of the band first, the whole locating sweep where it is noisy.
+"""Locating the modes: a coarse probe of the band first, then only what it did not find.
 
 A lean run's first sweep only has to find the modes; the mode grids measure them. With one
 tone every point costs a dwell (10 s on the cloverleaf: 10 minutes for the 61 points of
-``locate_points``), and at the devices' default noise (80 dB) a sweep of a third of them finds
-the modes as well. At 60 dB it does not serve as well: the fits of the fast gyros lean on the
-far response that the locating sweep measures, and its points are few to average the noise.
+``locate_points``), and a sweep of a third of them finds the modes as well where they are not
+much narrower than its step.
 
 So on a bench with a clock (``[experiment] probe = "auto"``, the default: the device states its
 dwell per acquisition, :func:`probe_first`), or with ``probe = true``, the run measures a *probe*
-first, every third point of the locating sweep (:func:`probe_points`: 21 of 61), and keeps it as
-the locating sweep when it shows both modes and its measured noise is under :data:`QUIET_NOISE` of
-its response (:func:`bench_noise`): the bench is then *quiet*. Otherwise the whole locating sweep
-follows at the same bias, as without a probe, and the probe is kept with every other sweep; a
-probe whose fit failed is first followed by windows around the modes it placed, as a failed
-locating sweep is (:mod:`sysid_core.measure.zoom`), when they take fewer points. The
-same measurement decides the first design (:meth:`~sysid_core.run.context.RunContext.design`): on a
-quiet bench, under the ``auto`` stiffness law, the first design is one-sided (``n + 1`` biases),
-the designs after it two-sided; and scouts step as the probe did.
+first, every third point of the locating sweep (:func:`probe_points`: 21 of 61). A probe that
+shows both modes stands as the locating sweep. One that does not is followed by windows around
+the modes its fit placed, as a failed locating sweep is (:mod:`sysid_core.measure.zoom`), when
+they take fewer points than the locating sweep, and by the locating sweep if they do not show
+the modes either; the probe is kept with every other sweep. The probe's measured noise
+(:func:`bench_noise`) decides the first design
+(:meth:`~sysid_core.run.context.RunContext.design`): under :data:`QUIET_NOISE` of its response
+(a *quiet* bench), under the ``auto`` stiffness law, the first design is one-sided (``n + 1``
+biases), the designs after it two-sided, and scouts step as the probe did; otherwise the first
+design is two-sided too.
 
-Measured with a clock (docs/studies/bench-time-lab.md): the cloverleaf, whose electrodes follow
-``v²``, reaches a true split of 1 mHz in a median of 14.4 minutes with one tone instead of 30.0, and
-4.4 with 8 tones instead of 5.1. Random gyros, whose laws are not ``v²``, pay for the one-sided
-first design about what the shorter locating sweep saves them (as many end within 1 mHz, 222
-of 240). In the uncontrolled lab (60 dB, where nearly every probe is noisy, 24 iterations) it
-ends 282 of 288 runs within 2 mHz on draws never used while developing, against 274 without.
-A device without a clock (nothing says what a point costs) keeps the whole locating sweep
-first, as before.
+Measured (docs/studies/dwells.md): on random gyros of a good lab with 8 tones and 2 electrodes,
+keeping a noisy probe that shows both modes cuts the median from 37 to 30 dwells and from 199 to
+148 points, as many runs ending within 1 mHz (22 of 24); in the uncontrolled lab (60 dB) 46 of 48
+end within 2 mHz against 44. Earlier, a noisy probe was followed by the whole locating sweep,
+because the fits of fast gyros at 60 dB lean on the far response that sweep measures; one such
+run (a first answer at the bias limit) still pays for the probe alone. A device without a clock
+(nothing says what a point costs) keeps the whole locating sweep first.
 
-Why the whole locating sweep again rather than the probe's missing two thirds: completed by a
-second pass interleaved with the first, the points around a mode come from two times a quarter
-of an hour apart on a slow gyro, between which a drifting bench moves the mode; a locating
-sweep made so lost lab gyros (72 of 96 within 2 mHz against 77, the cause not isolated).
+Why the whole locating sweep rather than the probe's missing two thirds, where one is needed:
+completed by a second pass interleaved with the first, the points around a mode come from two
+times a quarter of an hour apart on a slow gyro, between which a drifting bench moves the mode;
+a locating sweep made so lost lab gyros (72 of 96 within 2 mHz against 77, the cause not
+isolated).
 """
 
 from __future__ import annotations
@@ -60,8 +60,9 @@ __all__ = [
 ]
 
 #: A bench is quiet when the probe's noise is under this share of its response (the measured
-#: noise's norm over the response's, :func:`bench_noise`). Measured on one-tone probes: 12 of
-#: 72 random gyros over it at 80 dB (median 0.8 %), 93 of 96 at 60 dB (median 6-10 %).
+#: noise's norm over the response's, :func:`bench_noise`); it decides only the first design.
+#: Measured on one-tone probes: 12 of 72 random gyros over it at 80 dB (median 0.8 %), 93 of 96
+#: at 60 dB (median 6-10 %).
 QUIET_NOISE = 0.02
 #: The probe measures every this many points of the locating sweep,
 PROBE_EVERY = 3
@@ -128,12 +129,12 @@ def locate(
     so is each denser whole-band sweep that fails, before the next one: a denser sweep places
     the modes closer, and its windows cost a few dozen points where the next fallback costs
     hundreds or thousands.
-    ``probe``: measured first, as ``path`` itself; it ends the search if it shows both modes
-    and the bench is quiet (:data:`QUIET_NOISE`), else the tries follow; one that does not show
-    them is followed first by windows around the modes its fit placed, when they take fewer
+    ``probe``: measured first, as ``path`` itself; it ends the search if it shows both modes,
+    else the tries follow, first windows around the modes its fit placed when they take fewer
     points than the first try (:func:`~sysid_core.measure.zoom.zoom_grid`). The return says
-    whether the first sweep measured showed both modes on a quiet bench; without a probe it
-    is judged only if ``judge`` (the run's first look at the band), else False.
+    whether the first sweep measured showed both modes on a quiet bench (:data:`QUIET_NOISE`);
+    without a probe it is judged only if ``judge`` (the run's first look at the band), else
+    False.
     """
     if probe is not None:
         data, model, evidence = sweep(probe, path, True)
