@@ -7,6 +7,7 @@ never sees.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from truths import degenerate_config
@@ -21,19 +22,29 @@ from sysid_core.plugin.registry import get_registry
 ACCEPTANCE = 0.002
 
 
+def _gyro_112(tmp_path: Path, experiment: dict[str, Any]) -> tuple[Path, Any, Any, list[str]]:
+    """A 4-iteration run of random gyro 112 (frozen bench, 60 dB): folder, device, result, lines."""
+    device = get_registry().device("random-gyro", seed=112, noise=1e-3)
+    config = degenerate_config(
+        device,
+        {"seed": 112, "noise": 1e-3},
+        iterations=4,
+        model={"structure": device.structure},
+        experiment=experiment,
+    )
+    out = tmp_path / "run"
+    lines: list[str] = []
+    result = tune(config, out, device=device, plots=False, progress=lines.append)
+    return out, device, result, lines
+
+
 def test_a_narrow_mode_gyro_is_located_by_windows_not_by_a_denser_band(tmp_path: Path) -> None:
     """Random gyro 112 (1.49 kHz, bandwidths 0.045 / 0.075 Hz, 60 dB SNR, frozen bench): its
     61-point locating sweep steps 1.66 Hz and its fit fails. Measured: windows around the
     modes it fitted show them (54 points), and the run converges at a true split of 0.01 mHz
     in 496 points; with the band swept four times as densely instead (200 points, which failed
     too) the run ended 715 mHz apart after 2406 points."""
-    device = get_registry().device("random-gyro", seed=112, noise=1e-3)
-    config = degenerate_config(
-        device, {"seed": 112, "noise": 1e-3}, iterations=4, model={"structure": device.structure}
-    )
-    out = tmp_path / "run"
-    lines: list[str] = []
-    result = tune(config, out, device=device, plots=False, progress=lines.append)
+    out, device, result, lines = _gyro_112(tmp_path, {})
     assert (out / "iter01" / "exp0-zoom.nc").exists()
     assert not list(out.glob("iter01/*locate4.nc"))
     f = device.true_modal_frequencies_hz(result.bias)
@@ -49,17 +60,7 @@ def test_a_probe_that_misses_narrow_modes_is_followed_by_windows_not_the_band(
     """The same gyro with a probe first (``probe = true``): its 21 points step 5 Hz and its fit
     fails; windows around the modes it placed (cheaper than the 61-point locating band) show
     them. Measured: no locating band at all, a true split of 0.33 mHz in 349 points."""
-    device = get_registry().device("random-gyro", seed=112, noise=1e-3)
-    config = degenerate_config(
-        device,
-        {"seed": 112, "noise": 1e-3},
-        iterations=4,
-        model={"structure": device.structure},
-        experiment={"probe": True},
-    )
-    out = tmp_path / "run"
-    lines: list[str] = []
-    result = tune(config, out, device=device, plots=False, progress=lines.append)
+    out, device, result, lines = _gyro_112(tmp_path, {"probe": True})
     assert (out / "iter01" / "exp0-zoom.nc").exists()
     assert not list(out.glob("iter01/*locate*.nc"))
     f = device.true_modal_frequencies_hz(result.bias)
