@@ -153,7 +153,7 @@ class Knowledge:
     ) -> list[int]:
         """The rows of ``design`` to measure so that the sweeps near ``bias`` meet (6).
 
-        What :meth:`meets_rank` asks for, reached with the fewest new sweeps: the rows are taken
+        What :meth:`meets_rank` asks for, reached greedily with few new sweeps: the rows are taken
         in order, each only if it raises the rank of the sweeps near ``bias`` and the rows
         taken before it, until the rank is full. A sweep measured a few tenths of a volt away
         tells the local law what a new one at the design's bias would; only what the near
