@@ -14,7 +14,9 @@ frequency (the feedthrough polynomial). So a sweep of a lean run is:
 * otherwise a **mode grid** (:func:`mode_grid`): around each predicted mode, ``±(2 bw + 2σ)``
   (``σ`` the prediction's uncertainty) at a step of ``bw/2`` or coarser so that no mode gets
   more than ``2·MAX_HALF_POINTS + 1`` points (with ``σ = 0``: 7 points ``2 bw/3`` apart), plus
-  :data:`ANCHORS` far points, half on either side.
+  :data:`ANCHORS` far points, half on either side. Two modes whose cores overlap (near
+  degenerate modes: every verification near the end of a run) share one grid at the finer
+  of their steps: two interleaved grids would put pairs of points µHz apart.
 
 A sweep whose evidence (:func:`sysid_core.measure.evidence.assess_window`) does not show both
 modes is followed by the whole band at the same bias, so a wrong guess costs points, never a result.
@@ -214,8 +216,32 @@ def _mode_points(
     f, bw = guess.frequencies_hz, guess.bandwidth_hz
     steps, counts = _core_steps(guess, points_per_bw, max_half)
     parts = [fi + si * np.arange(-k, k + 1) for fi, si, k in zip(f, steps, counts, strict=True)]
+    union = _one_core(f, steps, counts)
+    if union is not None:
+        parts = [union]
     points = _clip(np.concatenate([*parts, anchors(f, bw, plan)]), plan.band_hz)
     return _merge(points, 1e-3 * float(bw.min()))
+
+
+def _one_core(f: np.ndarray, steps: np.ndarray, counts: list[int]) -> np.ndarray | None:
+    """The two modes' cores as one grid when they overlap, or None when they do not.
+
+    Two overlapping grids of steps ``s0, s1`` interleave: points a fraction of a step apart
+    (near degenerate modes: pairs a few µHz apart) resolve nothing the finer grid alone does
+    not. One grid over the union of the cores at the finer step, ``min(s0, s1)``, keeps every
+    mode's resolution; it is used when it has fewer points than the two grids together.
+    """
+    lo = np.asarray(f) - np.asarray(steps) * np.asarray(counts)
+    hi = np.asarray(f) + np.asarray(steps) * np.asarray(counts)
+    step = float(np.min(steps))
+    if lo[1] > hi[0] + step or not step > 0:
+        return None
+    start, stop = float(np.min(lo)), float(np.max(hi))
+    n = math.ceil((stop - start) / step - 1e-9)
+    if n + 1 >= sum(2 * k + 1 for k in counts):
+        return None
+    centre = 0.5 * (start + stop)
+    return centre + step * (np.arange(n + 1) - n / 2)
 
 
 def mode_grid(
