@@ -5,7 +5,10 @@ the predicted split is wider than it); if it shows both modes but too coarsely (
 window around an uncertain prediction: only the resolution and the model's unsampled peak fail,
 :meth:`~sysid_core.measure.evidence.WindowAssessment.too_coarse`), a fine window around them, and
 one more, sized by the bandwidths its fit measured, if that is still too coarse; if it fails,
-the whole band, whose fit locates the modes; then, if they are close, a narrow window around
+the whole band, whose fit locates the modes (a lean run's band is followed, where it fails, by
+windows around the modes its fit placed and by denser bands, as the run's first locating sweep
+is: a verification that sees no modes teaches the model nothing, and the next answer would
+land where the last did); then, if they are close, a narrow window around
 the located modes (with its fine windows). A window too coarse to resolve the modes stands
 without its fine windows when its split is over :data:`COARSE_ENOUGH` times the acceptance.
 Each sweep is judged by
@@ -33,6 +36,7 @@ from sysid_core.tuning.criteria import TuningResult
 __all__ = [
     "COARSE_ENOUGH",
     "MAX_FINE",
+    "Band",
     "Sweep",
     "Verification",
     "Window",
@@ -46,6 +50,12 @@ Sweep = Callable[[np.ndarray, str, bool], tuple[xr.Dataset, FittedModel, WindowA
 #: Chooses a window's frequencies: ``(center, split, around a prediction?, bandwidths a sweep's
 #: fit has just measured there or None)`` to frequencies.
 Window = Callable[[float, float, bool, np.ndarray | None], np.ndarray]
+#: Locates the modes over the plan's band when a window around the predicted ones missed them:
+#: appends the evidence of every sweep it measures to the list given and returns the last sweep
+#: (the one that showed both modes, if any did).
+Band = Callable[
+    [SweepPlan, list[WindowAssessment]], tuple[xr.Dataset, FittedModel, WindowAssessment]
+]
 #: Fine windows measured in a row while each finds both modes but too coarsely.
 MAX_FINE = 2
 #: A window too coarse to resolve the modes stands when its split is over this many times the
@@ -132,6 +142,7 @@ def verify(
     sweep: Sweep,
     say: Progress,
     lean: Window | None = None,
+    band: Band | None = None,
 ) -> Verification:
     """Verify a tuning at its bias with evidence (see the module docstring).
 
@@ -153,6 +164,10 @@ def verify(
         :func:`~sysid_core.measure.lean.mode_grid`): ``(center, split, predicted, seen)`` to
         frequencies, ``predicted`` false for a window around modes a sweep has just found,
         ``seen`` the bandwidths that sweep's fit measured (or None).
+    band : callable, optional
+        Locates the modes over the band instead of one whole-band sweep (a lean run's: a
+        failed band is followed by windows and denser bands, as the run's first locating
+        sweep is, :func:`~sysid_core.measure.locating.locate`); see :data:`Band`.
     """
     rep = predicted_modes
     # the modes are measured where the model puts them, inside the band or not
@@ -192,8 +207,7 @@ def verify(
             f"verification: predicted split {predicted.split_hz:.3g} Hz; sweeping the whole "
             "band to locate the modes"
         )
-    swept, vmodel, ev = sweep(plan.band(), "verify-band.nc", True)
-    windows.append(ev)
+    swept, vmodel, ev = (band or _whole_band(sweep))(plan, windows)
     if not ev.ok:
         return Verification("failed", None, windows, swept, vmodel)
     located = ev.frequencies_hz
@@ -207,6 +221,19 @@ def verify(
     if ev2.ok:
         return Verification("verified", ev2.frequencies_hz, windows, swept2, vmodel2)
     return Verification("located", located, windows, swept, vmodel)
+
+
+def _whole_band(sweep: Sweep) -> Band:
+    """One sweep of the plan's band (a run that does not locate further)."""
+
+    def band(
+        plan: SweepPlan, windows: list[WindowAssessment]
+    ) -> tuple[xr.Dataset, FittedModel, WindowAssessment]:
+        found = sweep(plan.band(), "verify-band.nc", True)
+        windows.append(found[2])
+        return found
+
+    return band
 
 
 def _narrow(

@@ -9,6 +9,7 @@ it measures only the experiments of the local design they lack
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -36,7 +37,8 @@ from sysid_core.measure.locating import locate as locate_modes
 from sysid_core.measure.locating import probe_first, probe_points
 from sysid_core.measure.motion import motion_allowance
 from sysid_core.measure.previous import PreviousModel
-from sysid_core.measure.verification import Verification, modes_at
+from sysid_core.measure.sweeps import SweepPlan
+from sysid_core.measure.verification import Band, Verification, modes_at
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.context import RunContext
 from sysid_core.run.protocol_base import Found, Prefit, Protocol
@@ -162,9 +164,36 @@ class LeanProtocol(Protocol):
             return mode_grid(guess, self.ctx.plan, resolve=True, fine=True, finest_hz=finest)
 
         before = len(self.known)
-        ver = self._verify_with(bias, predicted, model, folder, self.locate_plan, window)
+        band = self._band(bias, folder)
+        ver = self._verify_with(bias, predicted, model, folder, self.locate_plan, window, band)
         self.verify_points = [int(m.data.sizes["frequency"]) for m in self.known.items[before:]]
         return ver
+
+    def _band(self, bias: np.ndarray, folder: Path) -> Band:
+        """A verification's locating at ``bias``: the band as the run's first look is located.
+
+        The locating band of the plan the verification follows; where it does not show both
+        modes, windows around those its fit placed, the band four times as dense and the band at
+        ``resolution_hz`` (:func:`~sysid_core.measure.locating.locate`).
+        """
+
+        def band(plan: SweepPlan, windows: list[WindowAssessment]) -> Found:
+            found: list[Found] = []
+
+            def sweep(freqs: np.ndarray, at: Path, whole: bool) -> Found:
+                found.append(self.sweep(bias, freqs, at, whole))
+                windows.append(found[-1][2])
+                return found[-1]
+
+            finest = self.ctx.plan.resolution_hz
+            denser = dataclasses.replace(plan, resolution_hz=max(finest, plan.resolution_hz / 4))
+            every = dataclasses.replace(plan, resolution_hz=finest)
+            tries = [("", plan.band()), ("-locate4", denser.band()), ("-all", every.band())]
+            path = folder / "verify-band.nc"
+            locate_modes(sweep, self.ctx.say, path, tries, plan, denser.band().size)
+            return found[-1]
+
+        return band
 
     def learned(self, moved: bool, bias: np.ndarray, ver: Verification) -> None:
         """Keep whether the run moved, and the verified bias and modes if verified."""

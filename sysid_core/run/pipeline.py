@@ -55,7 +55,7 @@ from sysid_core.run.components import build_components
 from sysid_core.run.config import PipelineConfig
 from sysid_core.run.plots import PLOT_FORMATS, plot_bias_path, plot_iteration
 from sysid_core.run.protocols import RunContext, make_protocol
-from sysid_core.run.record import IterationRecord, Least, verified_splits
+from sysid_core.run.record import IterationRecord, Least, failed_in_a_row, verified_splits
 from sysid_core.run.summary import RunSummary, summarize
 from sysid_core.run.timeline import plot_timeline
 from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion
@@ -246,6 +246,7 @@ class TuningRun:
             goals, converged, stop = verdict(
                 *(ver, now, self.criterion, self.fitter, cfg.acceptance_hz, cfg.aim, self.tracker),
                 self.clock.afford(int(ver.sweep.sizes["frequency"])),
+                failed_in_a_row(history),
             )
             if stop is not None:
                 self.notes.append(f"iteration {it}: {stop}")

@@ -17,7 +17,14 @@ import xarray as xr
 from sysid_core.measure.evidence import WindowAssessment
 from sysid_core.measure.passes import repeat_window
 from sysid_core.measure.sweeps import SweepPlan
-from sysid_core.measure.verification import COARSE_ENOUGH, Verification, Window, modes_at, verify
+from sysid_core.measure.verification import (
+    COARSE_ENOUGH,
+    Band,
+    Verification,
+    Window,
+    modes_at,
+    verify,
+)
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.context import RunContext
 from sysid_core.tuning.criteria import TuningResult
@@ -91,6 +98,7 @@ class Protocol(ABC):
         folder: Path,
         plan: SweepPlan,
         lean: Window | None = None,
+        band: Band | None = None,
     ) -> Verification:
         enough = COARSE_ENOUGH * self.ctx.config.tuning.acceptance_hz
 
@@ -100,4 +108,4 @@ class Protocol(ABC):
             return self.sweep(bias, freqs, folder / name, band, enough)
 
         modes = modes_at(model, bias[self.ctx.space.index])
-        return verify(modes, predicted, plan, sweep, self.ctx.say, lean=lean)
+        return verify(modes, predicted, plan, sweep, self.ctx.say, lean=lean, band=band)

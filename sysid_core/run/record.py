@@ -23,6 +23,7 @@ from sysid_core.tuning.criteria import Goal, TuningResult
 __all__ = [
     "IterationRecord",
     "Least",
+    "failed_in_a_row",
     "latest_measured",
     "least_measured",
     "verified_splits",
@@ -155,6 +156,16 @@ def latest_measured(history: list[IterationRecord]) -> Least:
     if not np.isfinite(h.measured_split_hz):
         return None
     return float(h.measured_split_hz), np.asarray(h.verified_bias, dtype=float)
+
+
+def failed_in_a_row(history: list[IterationRecord]) -> int:
+    """How many of the latest iterations in a row had a verification that showed no modes."""
+    count = 0
+    for h in reversed(history):
+        if h.verification != "failed":
+            break
+        count += 1
+    return count
 
 
 def verified_splits(history: list[IterationRecord]) -> tuple[Least, Least]:

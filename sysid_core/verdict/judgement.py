@@ -68,6 +68,7 @@ from sysid_core.tuning.confidence import split_interval
 from sysid_core.tuning.criteria import Goal, TuningCriterion
 
 __all__ = [
+    "BLIND",
     "DRIFTING_AIM",
     "DRIFT_GOAL",
     "END_GOAL",
@@ -75,6 +76,7 @@ __all__ = [
     "TWIN_FACTOR",
     "WINDOWS_SEARCHED",
     "aim_fraction",
+    "blind",
     "floored",
     "holds_s",
     "honest_goals",
@@ -92,6 +94,8 @@ DRIFT_GOAL = "split at the end (drift)"
 RESOLVE_FACTOR = 2.0
 #: How many more windows :func:`floored` looks through for the number that would show a tuning.
 WINDOWS_SEARCHED = 10_000
+#: Verifications in a row that showed no modes stop a run (:func:`blind`).
+BLIND = 2
 #: A run that tracks the drift stops at a verified split under this fraction of the acceptance.
 DRIFTING_AIM = 0.5
 #: The twin structure fits a window this many times better (residual sum of squares): the
@@ -249,6 +253,7 @@ def verdict(
     aim: float | None = None,
     tracker: Tracker | None = None,
     afford: tuple[int, float] | None = None,
+    failed_before: int = 0,
 ) -> tuple[list[Goal], bool, str | None]:
     """A verification's goals, whether the run converged, and why it stops unconverged (or None).
 
@@ -257,10 +262,12 @@ def verdict(
     ``aim`` (``[tuning] aim``, 1 unset) times the acceptance; else the window's own goals at
     :func:`aim_fraction`. If they are all met, the :func:`twin_goal` too; if only the drift's
     is not, :func:`outpaced`; with the forecast and ``afford`` (the windows the run can still
-    measure and the seconds between them), :func:`floored`.
+    measure and the seconds between them), :func:`floored`. A verification that showed no modes
+    stops the run when the ``failed_before`` ones just before it showed none either
+    (:func:`blind`).
     """
     if not ver.verified or ver.frequencies_hz is None or ver.split_hz is None:
-        return [], False, None
+        return [], False, blind(ver, failed_before)
     goals = criterion.goals(ver.frequencies_hz, acceptance_hz)
     end = None if tracker is None else tracker.end_split(model, ver.sweep)
     tracking = tracker is not None and bool(tracker.windows)
@@ -274,6 +281,28 @@ def verdict(
     if not converged and stop is None and end is not None and tracker and afford is not None:
         stop = floored(tracker, afford, fraction * acceptance_hz, end)
     return goals, converged, stop
+
+
+def blind(ver: Verification, failed_before: int) -> str | None:
+    """Why the run stops when its verifications keep showing no modes, else None.
+
+    A verification that finds no modes (the window, then the band located down to its
+    resolution where the run locates: :func:`~sysid_core.measure.verification.verify`) adds no
+    modes to the model, so the next answer lands where this one did, and its verification
+    fails alike. The second failure in a row shows it: the run stops there instead of
+    repeating it (an outside bench's gyro repeated it 58 times, 2.2 hours of bench clock).
+    One failure alone does not stop a run: on a drifting bench the next answer may land where
+    the modes show again (seen once in 48 uncontrolled-lab runs).
+    """
+    if ver.status != "failed" or failed_before + 1 < BLIND:
+        return None
+    return (
+        f"{failed_before + 1} verifications in a row showed no modes "
+        f"({ver.windows[-1].failures()}): the model's answers land where this bench does not "
+        "show the modes, and the next would land there again; the run stops at its last "
+        "answer. Start at a bias where the modes were seen ([tuning] start_bias), or measure "
+        "with more signal (a larger drive, more averaging)"
+    )
 
 
 def twin_goal(ver: Verification, fitter: Fitter, acceptance_hz: float) -> Goal | None:
