@@ -161,8 +161,9 @@ class Knowledge:
         every sweep's requested bias).
         """
         vg, quadratic = self.structure_potential, law != "linear"
-        # requested biases on both sides: a DAC's few LSBs would count as levels of their own
-        rows = [m.bias[list(index)][None, :] for m in self._near(bias, radius)]
+        # requested biases on both sides (a DAC's few LSBs would count as levels of their own),
+        # on a grid of SAME_V: requests closer than that are one level of the DAC too
+        rows = [_level(m.bias[list(index)])[None, :] for m in self._near(bias, radius)]
         need = (2 if quadratic else 1) * len(self.tuned) + 1
         rank = design_rank(np.concatenate(rows), vg, quadratic) if rows else 0
         taken: list[int] = []
@@ -171,7 +172,9 @@ class Knowledge:
                 break
             if self.has(b):
                 continue
-            trial = np.concatenate([*rows, np.asarray(b, dtype=float)[list(index)][None, :]])
+            trial = np.concatenate(
+                [*rows, _level(np.asarray(b, dtype=float)[list(index)])[None, :]]
+            )
             if (r := design_rank(trial, vg, quadratic)) > rank:
                 rows, rank = [trial], r
                 taken.append(j)
@@ -298,3 +301,8 @@ class Knowledge:
         return ModeGuess(
             ref.modes.frequencies_hz, ref.modes.bandwidth_hz, np.full(2, 3 * rate * dw_new)
         )
+
+
+def _level(bias: np.ndarray) -> np.ndarray:
+    """``bias`` on a grid of :data:`SAME_V`: the level a DAC applies for it, whatever its LSB."""
+    return np.round(np.asarray(bias, dtype=float) / SAME_V) * SAME_V

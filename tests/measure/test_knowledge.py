@@ -156,3 +156,18 @@ def test_what_completing_asks_for_meets_the_rank_with_no_more_sweeps(move, law) 
     for j in todo:
         known.add(sweep(gyro, design[j]), None)
     assert known.meets_rank(new, 0.375, law)
+
+
+def test_requests_closer_than_a_dac_step_are_one_level() -> None:
+    """Requested biases 6e-8 V apart are one DAC level: they raise no rank (hypothesis found
+    a move of (0.4375, 6e-8) V for which the named rows left the applied biases short of (6))."""
+    gyro = CloverleafGyro(seed=1)
+    old = _step_design(np.array([1.0, 1.0, 0.0]))
+    new = np.array([1.4375, 1.0 + 5.96e-8, 0.0])
+    known = _known_at(gyro, [*old, new])
+    design = _step_design(new)
+    todo = known.completing(new, 0.375, "auto", design, [0, 1])
+    assert todo == [1, 3, 4]  # one more on B1 (the old design gives the other), both on B2
+    for j in todo:
+        known.add(sweep(gyro, design[j]), None)
+    assert known.meets_rank(new, 0.375, "auto")
