@@ -11,8 +11,11 @@ first, every third point of the locating sweep (:func:`probe_points`: 21 of 61).
 shows both modes stands as the locating sweep. One that does not is followed by windows around
 the modes its fit placed, as a failed locating sweep is (:mod:`sysid_core.measure.zoom`), when
 they take fewer points than the locating sweep, and by the locating sweep if they do not show
-the modes either; the probe is kept with every other sweep. The probe's measured noise
-(:func:`bench_noise`) decides the first design
+the modes either; the probe is kept with every other sweep. A probe that showed both modes has
+measured that its step shows this gyro's modes on this bench: a later sweep that misses them
+(a scout whose electrode moved them further than it reached) falls back first to a band at the
+probe's step, then to the locating sweep (:class:`~sysid_core.run.lean_protocol.LeanProtocol`).
+The probe's measured noise (:func:`bench_noise`) decides the first design
 (:meth:`~sysid_core.run.context.RunContext.design`): under :data:`QUIET_NOISE` of its response
 (a *quiet* bench), under the ``auto`` stiffness law, the first design is one-sided (``n + 1``
 biases), the designs after it two-sided, and scouts step as the probe did; otherwise the first

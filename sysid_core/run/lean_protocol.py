@@ -74,6 +74,9 @@ class LeanProtocol(Protocol):
         #: (:mod:`sysid_core.measure.locating`); whether it found the bench quiet decides the first
         #: design.
         self.quiet, self.scout_plan = False, self.locate_plan
+        #: Whether the probe showed both modes: a band at its step shows this gyro's modes on
+        #: this bench, and is the first band a later sweep that misses them falls back to.
+        self.probe_stood = False
 
     def data(
         self, it: int, bias: np.ndarray, folder: Path, center_hz: float | None, split_hz: float
@@ -296,14 +299,18 @@ class LeanProtocol(Protocol):
             probe = probing.band()
             probe = probe if probe.size < locate.size else None
         tries = [("-locate", locate), ("-locate4", denser), ("-band", plan.band())]
+        if probe is None and self.probe_stood and first is not locate:
+            tries.insert(0, ("-probe", probing.band()))  # the step that showed them: first
         if probe is None:
             tries.insert(0, ("", first))
 
         def sweep(freqs: np.ndarray, at: Path, band: bool) -> Found:
             return self.sweep(bias, freqs, at, band)
 
+        before = len(self.known)
         quiet = locate_modes(sweep, ctx.say, path, tries, plan, denser.size, probe, looked)
         if looked:  # it decides the first design
             self.quiet = quiet
+            self.probe_stood = probe is not None and len(self.known) == before + 1
         if probe is not None and quiet:  # scouts too can locate modes with the probe's step
             self.scout_plan = probing

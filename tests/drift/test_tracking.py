@@ -58,13 +58,14 @@ def run(
 
 def test_tracking_tunes_charging_gyros_that_the_average_model_cannot(tmp_path: Path) -> None:
     """Random gyros 2-9 on the same lab, 8 iterations. Measured (true split at the end, mHz):
-    without tracking 0.94-13.7, median 3.5 (5 of 8 over the acceptance); with it 0.61-6.3,
-    median 1.1. One gyro is one draw of the lab (gyro 2 ends at 1.8 mHz untracked, 0.8
-    tracked), so the claim is on the medians."""
+    without tracking 0.67-7.4, median 1.8 (3 of 8 over the acceptance); with it 0.34-3.5,
+    median 0.97, lower on every gyro. One gyro is one draw of the lab, so the claim is on
+    the pairs: tracking ends closer on at least 7 of the 8 (a sign test rejects "no better"
+    at 5 %: P(7 or 8 of 8) = 9/256), and its median within the acceptance."""
     still = [run(tmp_path, "none", seed=seed)[0] for seed in range(2, 10)]
     tracked = [run(tmp_path, "track", seed=seed)[0] for seed in range(2, 10)]
     assert np.median(tracked) < ACCEPTANCE
-    assert np.median(still) > 2 * np.median(tracked)
+    assert sum(t < s for t, s in zip(tracked, still, strict=True)) >= 7, (still, tracked)
 
 
 def test_a_tracked_run_converges_on_its_forecast_and_lists_each_bias_once(
@@ -117,9 +118,10 @@ def test_auto_tracks_on_a_bench_with_a_clock_and_not_without_one(tmp_path: Path)
 def test_a_stale_window_is_measured_again_and_gives_the_rates(tmp_path: Path) -> None:
     """Random gyro 119 (25.8 kHz, the lab's bench): the window verified at an answer is older
     than the local design measured after it (its split fell too slowly); measured again, the
-    two windows of one bias anchor the model with a rate, and the run converges (1.1 mHz true).
-    Found with the whole locating sweep first (``probe = false``)."""
-    tracked, summary, lines = run(tmp_path, "track", seed=119, probe=False)
+    two windows of one bias anchor the model with a rate, and the run converges (0.67 mHz true).
+    The case arises with the default probe (it was found with ``probe = false``, whose path
+    later changes to the measurement rules moved)."""
+    tracked, summary, lines = run(tmp_path, "track", seed=119)
     assert tracked < ACCEPTANCE
     assert summary["converged"]
     assert summary["drift_split_hz_per_h"] is not None
@@ -132,24 +134,18 @@ def test_a_stale_window_is_measured_again_and_gives_the_rates(tmp_path: Path) ->
 
 
 def test_a_window_blind_to_one_of_its_modes_does_not_give_its_split(tmp_path: Path) -> None:
-    """Random gyro 119 (25.8 kHz) on a quiet bench (a clock, 60 dB, noise draw 1): the first
-    answer's window held one of two modes 16 Hz apart and stood coarse (its split far over the
-    acceptance), its fit adding a phantom mode 4.6 Hz away, 6.7 bandwidths from its nearest
-    point. When that window gave the tracked model its own split, every later answer was
-    pulled 11 Hz off (11.5 Hz at the end); measured without it: 1.02 mHz true at the end."""
-    bench = {"clock": True, "seed": 119 + 100000, "temperature_ramp_k_per_h": 0.0}
-    options = {"seed": 119, "noise": 1e-3, "noise_seed": 1}
-    device = get_registry().device("random-gyro", **options, bench=bench)
-    model = {"drift": "track", "structure": device.structure}
-    # found with the whole locating sweep first (a probe locates other first windows)
-    experiment = {"probe": False}
-    config = degenerate_config(device, options, iterations=8, model=model, experiment=experiment)
-    lines: list[str] = []
-    result = tune(config, tmp_path / "g119", device=device, plots=False, progress=lines.append)
-    f = device.true_modal_frequencies_hz(result.bias)
+    """Random gyro 115 (10.9 kHz, the lab's bench): the first answer's window stood coarse
+    (2.56 Hz, far over the acceptance) with a fitted mode that none of its points came near;
+    the tracked model does not take that window's own split, says so, and the run converges
+    (0.66 mHz true). The rule was found on gyro 119 on a quiet bench (``probe = false``), whose
+    blind window, taken at its word, pulled every later answer 11 Hz off; the measurement rules
+    since no longer make that window (gyros 101-130 on that bench: two blind windows, 115 and
+    116, whose ends the rule does not change), so this case shows the rule at work, not the harm
+    it prevents; :func:`test_a_mode_that_no_point_came_near_is_blind` tests the judgement."""
+    tracked, summary, lines = run(tmp_path, "track", seed=115)
     assert any("anchored on" in line for line in lines)
     assert any("give no split of their own" in line for line in lines)
-    assert float(f[1] - f[0]) < 2 * ACCEPTANCE
+    assert summary["converged"] and tracked < ACCEPTANCE
 
 
 def test_a_mode_that_no_point_came_near_is_blind() -> None:

@@ -1,0 +1,56 @@
+"""A sweep that misses the modes after a probe that showed them falls back to the probe's step.
+
+Truth: the simulated gyro's modal frequencies (``true_modal_frequencies_hz``), which the run
+never sees. Random gyro 404 (2.80 kHz, one tone per acquisition, a good lab's clock): its
+21-point probe at 0 V shows both modes; stepping B1 by 3 V moves one mode out of the scout's
+window. Before, the run then swept the band at 61 points (61 acquisitions); the 21 points of
+the probe's step show the modes there as they did at 0 V.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from sysid_core import load_model, tune
+from sysid_core.plugin.registry import get_registry
+
+GOOD_LAB = {"temperature_ramp_k_per_h": 0.2, "temperature_walk_k_per_sqrt_h": 0.05}
+
+
+def test_a_missed_scout_is_followed_by_a_band_at_the_probes_step(tmp_path: Path) -> None:
+    bench = {"clock": True, "seed": 404, "tones": 1, **GOOD_LAB}
+    device = get_registry().device("random-gyro", seed=404, bench=bench)
+    config = {
+        "device": {"name": "random-gyro", "seed": 404},
+        "model": {"structure": device.structure},
+        "tuning": {
+            "criterion": "degenerate",
+            "electrodes": list(device.electrodes[:2]),
+            "start_bias": [0.0] * len(device.electrodes),
+            "acceptance_hz": 0.001,
+            "max_iterations": 1,
+        },
+        "experiment": {"bias_step": 3.0},
+    }
+    lines: list[str] = []
+    out = tmp_path / "run"
+    tune(config, out, device=device, plots=False, progress=lines.append)
+
+    folder = out / "iter01"
+    missed = [ln for ln in lines if "exp1.nc: the sweep does not show both modes" in ln]
+    assert missed, "\n".join(lines)  # the case: the scout of B1 misses a mode
+    assert (folder / "exp1-probe.nc").exists()
+    assert not (folder / "exp1-locate.nc").exists()  # no 61-point band
+    assert not any("61 points" in ln for ln in lines)
+    # the band at the probe's step located the modes where they are: the first model, fitted
+    # to it with the design, puts them within a bandwidth (0.111 / 0.197 Hz) of the truth at
+    # the scout's bias
+    model = load_model(folder / "model.nc")
+    at = np.array([3.0, 0.0])
+    fitted = np.sort(model.modal(at).frequencies_hz)
+    truth = np.sort(
+        device.true_modal_frequencies_hz(np.r_[at, np.zeros(len(device.electrodes) - 2)])
+    )
+    np.testing.assert_allclose(fitted, truth, atol=0.1)
