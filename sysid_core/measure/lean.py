@@ -45,6 +45,7 @@ from sysid_core.measure.sweeps import MIN_POINTS, SweepPlan, grid
 __all__ = [
     "ANCHORS",
     "CORE_BANDWIDTHS",
+    "DENSER",
     "FINE_STEP",
     "LOCAL_RADIUS",
     "LOCATE_POINTS",
@@ -52,6 +53,7 @@ __all__ = [
     "MAX_HALF_POINTS",
     "SCOUT_SPLITS",
     "ModeGuess",
+    "denser_plan",
     "explained_gap",
     "locate_plan",
     "mode_grid",
@@ -82,6 +84,8 @@ SCOUT_BANDWIDTHS = 10.0
 #: locate_points`` sets it (31: less time, less accurate in the lab:
 #: docs/studies/bench-time-lab.md).
 LOCATE_POINTS = 61
+#: A locating band that does not show both modes is followed by one this many times as dense.
+DENSER = 4
 #: A fine grid (:func:`mode_grid` with ``fine``) gives each mode at most this many points a side.
 MAX_FINE_HALF_POINTS = 12
 #: A model explains a verification when its modes miss the measured ones by at most this
@@ -369,6 +373,15 @@ def locate_plan(plan: SweepPlan, points: int = LOCATE_POINTS) -> SweepPlan:
     lo, hi = plan.band_hz
     step = max(plan.resolution_hz, (hi - lo) / (points - 1))
     return dataclasses.replace(plan, resolution_hz=step)
+
+
+def denser_plan(plan: SweepPlan, finest_hz: float) -> SweepPlan:
+    """``plan``'s band :data:`DENSER` times as dense, never finer than ``finest_hz``.
+
+    What follows a locating band that did not show both modes (then the band at ``finest_hz``,
+    the run's ``resolution_hz``).
+    """
+    return dataclasses.replace(plan, resolution_hz=max(finest_hz, plan.resolution_hz / DENSER))
 
 
 def explained_gap(predicted_hz: np.ndarray, measured_hz: np.ndarray) -> float | None:

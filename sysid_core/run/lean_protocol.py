@@ -27,6 +27,7 @@ from sysid_core.measure.lean import (
     FINE_STEP,
     LOCAL_RADIUS,
     ModeGuess,
+    denser_plan,
     explained_gap,
     following,
     locate_plan,
@@ -189,7 +190,7 @@ class LeanProtocol(Protocol):
                 return found[-1]
 
             finest = self.ctx.plan.resolution_hz
-            denser = dataclasses.replace(plan, resolution_hz=max(finest, plan.resolution_hz / 4))
+            denser = denser_plan(plan, finest)
             every = dataclasses.replace(plan, resolution_hz=finest)
             tries = [("", plan.band()), ("-locate4", denser.band()), ("-all", every.band())]
             path = folder / "verify-band.nc"
@@ -280,7 +281,8 @@ class LeanProtocol(Protocol):
         ctx, points = self.ctx, self.ctx.config.experiment.locate_points
         guess, scout = self.known.guess(bias, ctx.fitter.structure, ctx.fitter.model)
         plan = ctx.plan if guess is None else following(ctx.plan, guess)  # bands follow modes
-        locate = (self.locate_plan if plan is ctx.plan else locate_plan(plan, points)).band()
+        locating = self.locate_plan if plan is ctx.plan else locate_plan(plan, points)
+        locate = locating.band()
         if first is None and guess is None:
             first = locate
         elif first is None and scout:
@@ -290,7 +292,7 @@ class LeanProtocol(Protocol):
         elif first is None:
             assert guess is not None
             first = mode_grid(guess, ctx.plan)
-        denser = locate_plan(plan, 4 * (points - 1) + 1).band()
+        denser = denser_plan(locating, plan.resolution_hz).band()
         probe, probing = None, locate_plan(plan, probe_points(points))
         # the run's first look at the band, on a bench that may be quiet
         setting, caps = ctx.config.experiment.probe, ctx.bench.device.capabilities

@@ -290,9 +290,9 @@ def blind(ver: Verification, failed_before: int) -> str | None:
     resolution where the run locates: :func:`~sysid_core.measure.verification.verify`) adds no
     modes to the model, so the next answer lands where this one did, and its verification
     fails alike. The second failure in a row shows it: the run stops there instead of
-    repeating it (an outside bench's gyro repeated it 58 times, 2.2 hours of bench clock).
-    One failure alone does not stop a run: on a drifting bench the next answer may land where
-    the modes show again (seen once in 48 uncontrolled-lab runs).
+    repeating it until its budget is spent. One failure alone does not stop a run: on a
+    drifting bench the next answer may land where the modes show again
+    (docs/studies/dwells.md, "A verification that sees no modes").
     """
     if ver.status != "failed" or failed_before + 1 < BLIND:
         return None
