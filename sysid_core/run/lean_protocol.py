@@ -176,9 +176,11 @@ class LeanProtocol(Protocol):
     def _band(self, bias: np.ndarray, folder: Path) -> Band:
         """A verification's locating at ``bias``: the band as the run's first look is located.
 
-        The locating band of the plan the verification follows; where it does not show both
-        modes, windows around those its fit placed, the band four times as dense and the band at
-        ``resolution_hz`` (:func:`~sysid_core.measure.locating.locate`).
+        The band at the probe's step first when the run's probe showed both modes (as after an
+        identification sweep that missed them), then the locating band of the plan the
+        verification follows; where one does not show both modes, windows around those its fit
+        placed, the band four times as dense and the band at ``resolution_hz``
+        (:func:`~sysid_core.measure.locating.locate`).
         """
 
         def band(plan: SweepPlan, windows: list[WindowAssessment]) -> Found:
@@ -193,6 +195,9 @@ class LeanProtocol(Protocol):
             denser = denser_plan(plan, finest)
             every = dataclasses.replace(plan, resolution_hz=finest)
             tries = [("", plan.band()), ("-locate4", denser.band()), ("-all", every.band())]
+            if self.probe_stood:  # the step that showed this gyro's modes on this bench
+                points = probe_points(self.ctx.config.experiment.locate_points)
+                tries.insert(0, ("-probe", locate_plan(plan, points).band()))
             path = folder / "verify-band.nc"
             locate_modes(sweep, self.ctx.say, path, tries, plan, denser.band().size)
             return found[-1]

@@ -4,11 +4,13 @@ Truth: the simulated gyro's modal frequencies (``true_modal_frequencies_hz``), w
 never sees. Random gyro 404 (2.80 kHz, one tone per acquisition, a good lab's clock): its
 21-point probe at 0 V shows both modes; stepping B1 by 3 V moves one mode out of the scout's
 window. Before, the run then swept the band at 61 points (61 acquisitions); the 21 points of
-the probe's step show the modes there as they did at 0 V.
+the probe's step show the modes there as they did at 0 V. A verification whose window misses
+the modes falls back the same way (random gyro 396).
 """
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -54,3 +56,37 @@ def test_a_missed_scout_is_followed_by_a_band_at_the_probes_step(tmp_path: Path)
         device.true_modal_frequencies_hz(np.r_[at, np.zeros(len(device.electrodes) - 2)])
     )
     np.testing.assert_allclose(fitted, truth, atol=0.1)
+
+
+def test_a_missed_verification_window_is_followed_by_a_band_at_the_probes_step(
+    tmp_path: Path,
+) -> None:
+    """Random gyro 396 (3.67 kHz, one tone, a good lab's clock): the first answer's window
+    misses a mode; before, the band at 61 points followed (61 acquisitions); the 21 points of
+    the probe's step locate both modes (the whole run: 275 -> 214 dwells, 261 -> 201 points)."""
+    bench = {"clock": True, "seed": 396, "tones": 1, **GOOD_LAB}
+    device = get_registry().device("random-gyro", seed=396, bench=bench)
+    config = {
+        "device": {"name": "random-gyro", "seed": 396},
+        "model": {"structure": device.structure},
+        "tuning": {
+            "criterion": "degenerate",
+            "electrodes": list(device.electrodes[:2]),
+            "start_bias": [0.0] * len(device.electrodes),
+            "acceptance_hz": 0.001,
+            "max_iterations": 1,
+        },
+    }
+    lines: list[str] = []
+    out = tmp_path / "run"
+    result = tune(config, out, device=device, plots=False, progress=lines.append)
+
+    folder = out / "iter01"
+    assert any("window around the predicted modes does not show both" in ln for ln in lines)
+    assert (folder / "verify-band-probe.nc").exists(), "\n".join(lines)
+    assert not (folder / "verify-band.nc").exists()  # no 61-point band
+    # it located both modes where they are: within a bandwidth (0.099 / 0.35 Hz) of the truth
+    last = json.loads((out / "summary.json").read_text())["history"][-1]
+    assert last["verification"] == "located"
+    truth = np.sort(device.true_modal_frequencies_hz(result.bias))
+    np.testing.assert_allclose(np.sort(last["measured_frequencies_hz"]), truth, atol=0.1)
