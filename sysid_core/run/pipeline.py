@@ -14,16 +14,15 @@
 4. Report (:mod:`sysid_core.run.summary`): the iteration's record, ``summary.json`` and plots.
 
 The run converges when a verification is *verified* and every goal of the criterion is met (the
-split under ``acceptance_hz``; for ``target``, also the frequency error). Otherwise it goes on
-until a verdict stops it (:mod:`sysid_core.verdict.judgement`), the bench-time budget is spent
-(``[tuning] max_bench_minutes``, :mod:`sysid_core.clock.budget`) or ``max_iterations`` is reached.
+split under ``acceptance_hz``; for ``target``, also the frequency error). Otherwise it goes on until
+a verdict stops it (:mod:`sysid_core.verdict.judgement`), the budget (``[tuning]
+max_bench_minutes``, :mod:`sysid_core.clock.budget`) is spent or ``max_iterations`` reached.
 
 Everything is checked before the first measurement: the configuration, every plugin (built
 here), the device's protocol attributes, the bias limits, the sweeps and the first design. Every
 measurement is checked (:mod:`sysid_core.device.measuring`) and written to the run folder
-(:mod:`sysid_core.clock.runfolder`) before anything else is done with it
-(:class:`~sysid_core.clock.bench.Bench`). A run that stops can be continued with
-``resume=True``: the loop is replayed and every measurement on disk is read, not measured again.
+(:mod:`sysid_core.clock.runfolder`) before anything else is done with it (:class:`Bench`). A
+stopped run continues with ``resume=True``: every measurement on disk is read, not measured again.
 """
 
 from __future__ import annotations
@@ -247,6 +246,7 @@ class TuningRun:
                 *(ver, now, self.criterion, self.fitter, cfg.acceptance_hz, cfg.aim, self.tracker),
                 self.clock.afford(int(ver.sweep.sizes["frequency"])),
                 failed_in_a_row(history),
+                (history[-1].verified_bias if history else None, step.bias, step.result.info),
             )
             if stop is not None:
                 self.notes.append(f"iteration {it}: {stop}")

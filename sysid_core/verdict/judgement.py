@@ -56,6 +56,9 @@ structures are fitted plainly (not refitted with weights) so that their residual
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+from typing import Any
+
 import numpy as np
 
 from sysid_core.clock.runclock import stamps_span_s
@@ -66,6 +69,7 @@ from sysid_core.measure.verification import Verification
 from sysid_core.model.fitted import FittedModel
 from sysid_core.tuning.confidence import split_interval
 from sysid_core.tuning.criteria import Goal, TuningCriterion
+from sysid_core.verdict.answer import dac_floor
 
 __all__ = [
     "BLIND",
@@ -77,6 +81,7 @@ __all__ = [
     "WINDOWS_SEARCHED",
     "aim_fraction",
     "blind",
+    "dac_reached",
     "floored",
     "holds_s",
     "honest_goals",
@@ -254,6 +259,7 @@ def verdict(
     tracker: Tracker | None = None,
     afford: tuple[int, float] | None = None,
     failed_before: int = 0,
+    dac: tuple[Sequence[float] | None, np.ndarray, Mapping[str, Any]] | None = None,
 ) -> tuple[list[Goal], bool, str | None]:
     """A verification's goals, whether the run converged, and why it stops unconverged (or None).
 
@@ -264,7 +270,10 @@ def verdict(
     is not, :func:`outpaced`; with the forecast and ``afford`` (the windows the run can still
     measure and the seconds between them), :func:`floored`. A verification that showed no modes
     stops the run when the ``failed_before`` ones just before it showed none either
-    (:func:`blind`).
+    (:func:`blind`). ``dac``: the bias verified just before (None: none), this one and its
+    answer's ``info``: a run whose answer is the code it verified just before, where the DAC
+    limits it (:func:`~sysid_core.verdict.answer.dac_floor`) short of the goal, stops there
+    (:func:`dac_reached`).
     """
     if not ver.verified or ver.frequencies_hz is None or ver.split_hz is None:
         return [], False, blind(ver, failed_before)
@@ -278,9 +287,39 @@ def verdict(
         goals.append(twin)
         converged = twin.met
     stop = None if converged else outpaced(goals, ver.split_hz, acceptance_hz, sweep_half_s(ver))
+    if not converged and stop is None and dac is not None:
+        previous, bias, info = dac
+        again = previous is not None and np.array_equal(np.asarray(previous), bias)
+        measured = ver.split_hz if end is None else end[1]
+        floor = dac_floor(info, acceptance_hz)
+        stop = dac_reached(again, floor, fraction * acceptance_hz, measured)
     if not converged and stop is None and end is not None and tracker and afford is not None:
         stop = floored(tracker, afford, fraction * acceptance_hz, end)
     return goals, converged, stop
+
+
+def dac_reached(
+    repeated: bool, floor_hz: float | None, limit_hz: float, measured_hz: float
+) -> str | None:
+    """Why the run stops at the floor its DAC sets, or None.
+
+    ``repeated``: the answer is the DAC code verified just before, so the model's best code
+    stays where it was and any later window measures this code again. The model predicts that
+    it leaves ``floor_hz`` (:func:`~sysid_core.verdict.answer.dac_floor`), over the goal's
+    ``limit_hz``, and the windows measure ``measured_hz`` there (the forecast's mean on a
+    tracked run, else the window's split), over it too: the model and the measurements agree
+    that no code the run can apply meets the goal, and more windows of this one would only
+    measure it again (a 27 kHz gyro, 16 bits, one tone: 145 windows of one code for 50
+    minutes, measured 0.97-1.26 mHz, predicted 1.03-1.16 mHz, acceptance 1 mHz).
+    """
+    if not repeated or floor_hz is None or floor_hz <= limit_hz or measured_hz <= limit_hz:
+        return None
+    return (
+        f"the DAC sets the floor: the model's best code is the one just verified again, where "
+        f"it predicts {floor_hz * 1e3:.3g} mHz and the windows measure {measured_hz * 1e3:.3g} "
+        f"mHz, over the goal of {limit_hz * 1e3:.3g} mHz; the run stops at that code (a finer "
+        "DAC, another tuned electrode or a wider acceptance would reach the goal)"
+    )
 
 
 def blind(ver: Verification, failed_before: int) -> str | None:

@@ -19,12 +19,13 @@ from sysid_core.cli import main
 from sysid_core.run.config import parse_config
 from sysid_core.run.pipeline import TuningRun
 from sysid_core.verdict.answer import DAC_FLOOR_SHARE, dac_floor
+from sysid_core.verdict.judgement import dac_reached
 
 ACCEPTANCE = 0.001
 
 
-def config() -> dict:
-    return cloverleaf_config(ACCEPTANCE, 2, experiment={"band_hz": [4385.0, 4445.0]})
+def config(iterations: int = 2) -> dict:
+    return cloverleaf_config(ACCEPTANCE, iterations, experiment={"band_hz": [4385.0, 4445.0]})
 
 
 def test_a_dac_too_coarse_for_the_acceptance_is_said(tmp_path: Path) -> None:
@@ -75,3 +76,39 @@ def test_the_command_line_points_at_the_dac_not_at_more_iterations(
     assert code == 1 and last.startswith("sysid: error: NOT converged")
     assert "the DAC limits it" in last and "a finer DAC, another tuned electrode" in last
     assert "max_iterations" not in last
+
+
+def test_a_run_that_verifies_its_dac_floor_again_stops_there(tmp_path: Path) -> None:
+    """The 10-bit cloverleaf with 8 iterations allowed: its second answer is the code its first
+    verified, where the model predicts 9.76 mHz and the window measures 9.74 mHz; the run stops
+    there (before: it verified that code again until the cap, 8 iterations, 291 points)."""
+    gyro = CloverleafGyro(seed=1, dac_bits=10)
+    summary = TuningRun(parse_config(config(8)), tmp_path / "run", device=gyro, plots=False).run()
+    assert not summary.converged and summary.iterations == 2
+    assert "stopped: the DAC sets the floor" in summary.status
+    # the truth agrees: no code one step around the final bias is within the acceptance
+    step = gyro.bias_resolution
+    best = min(
+        gyro.true_split_hz(summary.bias + np.array([d1 * step, d2 * step, 0.0]))
+        for d1, d2 in itertools.product((-1, 0, 1), repeat=2)
+    )
+    assert best > ACCEPTANCE
+
+
+@pytest.mark.parametrize(
+    ("again", "floor", "measured", "stops"),
+    [
+        (True, 1.1e-3, 1.05e-3, True),  # the code again; the model and the windows agree
+        (False, 1.1e-3, 1.05e-3, False),  # a new code: it may do better
+        (True, None, 1.05e-3, False),  # the DAC does not limit the answer
+        (True, 0.9e-3, 1.05e-3, False),  # the model says the code meets the goal
+        (True, 1.1e-3, 0.95e-3, False),  # the windows say it may: more of them can show it
+    ],
+)
+def test_the_dac_floor_stops_a_run_only_where_model_and_windows_agree(
+    again: bool, floor: float | None, measured: float, stops: bool
+) -> None:
+    why = dac_reached(again, floor, ACCEPTANCE, measured)
+    assert (why is not None) == stops
+    if why is not None:
+        assert "1.1 mHz" in why and "1.05 mHz" in why and "1 mHz" in why
