@@ -60,7 +60,6 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
-from scipy.stats import rice
 
 from sysid_core.clock.runclock import stamps_span_s
 from sysid_core.drift.tracker import Tracker
@@ -71,6 +70,7 @@ from sysid_core.model.fitted import FittedModel
 from sysid_core.tuning.confidence import split_interval
 from sysid_core.tuning.criteria import Goal, TuningCriterion
 from sysid_core.verdict.answer import dac_floor
+from sysid_core.verdict.dacfloor import budget_drift_hz, dac_reached, least_split
 
 __all__ = [
     "BLIND",
@@ -82,11 +82,9 @@ __all__ = [
     "WINDOWS_SEARCHED",
     "aim_fraction",
     "blind",
-    "dac_reached",
     "floored",
     "holds_s",
     "honest_goals",
-    "least_split",
     "outpaced",
     "split_rate_hz_per_s",
     "sweep_half_s",
@@ -293,53 +291,11 @@ def verdict(
         previous, bias, info = dac
         again = previous is not None and np.array_equal(np.asarray(previous), bias)
         floor = dac_floor(info, acceptance_hz)
-        stop = dac_reached(again, floor, fraction * acceptance_hz, least_split(ver, end, tracker))
+        least, moves = least_split(ver, end, tracker), budget_drift_hz(tracker, end, afford)
+        stop = dac_reached(again, floor, fraction * acceptance_hz, least, moves)
     if not converged and stop is None and end is not None and tracker and afford is not None:
         stop = floored(tracker, afford, fraction * acceptance_hz, end)
     return goals, converged, stop
-
-
-def least_split(
-    ver: Verification, end: tuple[float, float] | None, tracker: Tracker | None
-) -> float | None:
-    """The least split the windows allow at the verified bias, at 95 % (Hz), or None.
-
-    On a tracked run the 5 % point of the forecast's split at the window's end (``end``, its
-    bound and mean, with the filter's standard deviation: a Rice distribution); otherwise the
-    lower end of the window's own split interval. None where neither is known.
-    """
-    found = None if tracker is None else tracker.at_end
-    if end is not None and found is not None:
-        sigma = found.sigma_hz
-        return float(rice.ppf(0.05, end[1] / sigma, scale=sigma)) if sigma > 0 else end[1]
-    interval = split_interval(ver.model)
-    return None if interval is None else float(interval[0])
-
-
-def dac_reached(
-    repeated: bool, floor_hz: float | None, limit_hz: float, least_hz: float | None
-) -> str | None:
-    """Why the run stops at the floor its DAC sets, or None.
-
-    ``repeated``: the answer is the DAC code verified just before, so the model's best code
-    stays where it was and any later window measures this code again. The model predicts that
-    it leaves ``floor_hz`` (:func:`~sysid_core.verdict.answer.dac_floor`), over the goal's
-    ``limit_hz``, and the windows put the split there over it at 95 % too (``least_hz``,
-    :func:`least_split`): no code the run can apply meets the goal, and more windows of this
-    one would only measure it again. Where the windows are too noisy to tell (a fast gyro at
-    60 dB, its split known to ±5 mHz), the run goes on: more windows may show the goal met.
-    """
-    if not repeated or floor_hz is None or least_hz is None:
-        return None
-    if floor_hz <= limit_hz or least_hz <= limit_hz:
-        return None
-    return (
-        f"the DAC sets the floor: the model's best code is the one just verified again, where "
-        f"it predicts {floor_hz * 1e3:.3g} mHz and the windows put the split over "
-        f"{least_hz * 1e3:.3g} mHz at 95 %, over the goal of {limit_hz * 1e3:.3g} mHz; the run "
-        "stops at that code (a finer DAC, another tuned electrode or a wider acceptance would "
-        "reach the goal)"
-    )
 
 
 def blind(ver: Verification, failed_before: int) -> str | None:

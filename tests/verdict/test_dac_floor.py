@@ -19,7 +19,7 @@ from sysid_core.cli import main
 from sysid_core.run.config import parse_config
 from sysid_core.run.pipeline import TuningRun
 from sysid_core.verdict.answer import DAC_FLOOR_SHARE, dac_floor
-from sysid_core.verdict.judgement import dac_reached
+from sysid_core.verdict.dacfloor import dac_reached
 
 ACCEPTANCE = 0.001
 
@@ -114,3 +114,11 @@ def test_the_dac_floor_stops_a_run_only_where_model_and_windows_agree(
     assert (why is not None) == stops
     if why is not None:
         assert "1.1 mHz" in why and "1.05 mHz" in why and "1 mHz" in why
+
+
+def test_a_drift_of_the_floors_size_in_the_time_left_lets_the_run_go_on() -> None:
+    """The best code is the one whose split is least: a drift of the floor's size or more
+    within the budget may bring another code under the goal."""
+    assert dac_reached(True, 1.1e-3, ACCEPTANCE, 1.05e-3, drift_hz=0.2e-3) is not None
+    assert dac_reached(True, 1.1e-3, ACCEPTANCE, 1.05e-3, drift_hz=1.1e-3) is None
+    assert dac_reached(True, 2.6e-3, 2e-3, 2.2e-3, drift_hz=0.24) is None  # 4 mHz/min, 1 h

@@ -1,0 +1,88 @@
+"""The floor a DAC sets: when a run stops at the code it verified again.
+
+A DAC applies a bias only to within its step, so near degenerate modes the codes around an
+answer may all leave more than the acceptance (:func:`~sysid_core.verdict.answer.dac_floor`).
+A run whose answer is the code it has just verified, where the model and the windows agree that
+the split is over the goal, can only measure that code again: :func:`dac_reached` stops it
+there, unless the split may drift by the floor's size in the time the run has left.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.stats import rice
+
+from sysid_core.drift.tracker import Tracker
+from sysid_core.measure.verification import Verification
+from sysid_core.tuning.confidence import split_interval
+
+__all__ = ["budget_drift_hz", "dac_reached", "least_split"]
+
+
+def least_split(
+    ver: Verification, end: tuple[float, float] | None, tracker: Tracker | None
+) -> float | None:
+    """The least split the windows allow at the verified bias, at 95 % (Hz), or None.
+
+    On a tracked run the 5 % point of the forecast's split at the window's end (``end``, its
+    bound and mean, with the filter's standard deviation: a Rice distribution); otherwise the
+    lower end of the window's own split interval. None where neither is known.
+    """
+    found = None if tracker is None else tracker.at_end
+    if end is not None and found is not None:
+        sigma = found.sigma_hz
+        return float(rice.ppf(0.05, end[1] / sigma, scale=sigma)) if sigma > 0 else end[1]
+    interval = split_interval(ver.model)
+    return None if interval is None else float(interval[0])
+
+
+def budget_drift_hz(
+    tracker: Tracker | None, end: tuple[float, float] | None, afford: tuple[int, float] | None
+) -> float:
+    """How far the split may drift in the time the run has left (Hz); 0 where unknown.
+
+    The filter's rate at the latest window (its length plus 1.96 standard deviations of a
+    component) over the windows ``afford`` leaves (how many, seconds apart). 0 without a
+    forecast (``end``) or without ``afford``: a bench without a clock states no drift.
+    """
+    found = None if tracker is None or end is None else tracker.at_end
+    if found is None or afford is None:
+        return 0.0
+    windows, every_s = afford
+    rate = float(np.hypot(*found.rate_hz_per_s)) + 1.96 * float(np.sqrt(found.rate_variance))
+    return rate * max(windows, 0) * every_s
+
+
+def dac_reached(
+    repeated: bool,
+    floor_hz: float | None,
+    limit_hz: float,
+    least_hz: float | None,
+    drift_hz: float = 0.0,
+) -> str | None:
+    """Why the run stops at the floor its DAC sets, or None.
+
+    ``repeated``: the answer is the DAC code verified just before, so the model's best code
+    stays where it was and any later window measures this code again. The model predicts that
+    it leaves ``floor_hz`` (:func:`~sysid_core.verdict.answer.dac_floor`), over the goal's
+    ``limit_hz``, and the windows put the split there over it at 95 % too (``least_hz``,
+    :func:`least_split`): no code the run can apply meets the goal, and more windows of this
+    one would only measure it again. Where the windows are too noisy to tell (a fast gyro at
+    60 dB, its split known to ±5 mHz), the run goes on: more windows may show the goal met.
+    So does a run whose split may drift by the floor or more in the time it has left
+    (``drift_hz``, :func:`budget_drift_hz`): the best code is the one whose split is least,
+    and a drift of the floor's size moves the gyro to another code, which may meet the goal
+    (an uncontrolled lab's 27.7 kHz gyro, its split drifting 4 mHz/min: at one code for a
+    while, 2.6 mHz predicted, it reached 1.6 mHz at another later).
+    """
+    if not repeated or floor_hz is None or least_hz is None:
+        return None
+    if floor_hz <= limit_hz or least_hz <= limit_hz or drift_hz >= floor_hz:
+        return None
+    return (
+        f"the DAC sets the floor: the model's best code is the one just verified again, where "
+        f"it predicts {floor_hz * 1e3:.3g} mHz and the windows put the split over "
+        f"{least_hz * 1e3:.3g} mHz at 95 %, over the goal of {limit_hz * 1e3:.3g} mHz; the run "
+        "stops at that code (a finer DAC, another tuned electrode or a wider acceptance would "
+        "reach the goal)"
+    )
