@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -21,11 +22,12 @@ from sysid_core.plugin.registry import get_registry
 GOOD_LAB = {"temperature_ramp_k_per_h": 0.2, "temperature_walk_k_per_sqrt_h": 0.05}
 
 
-def test_a_missed_scout_is_followed_by_a_band_at_the_probes_step(tmp_path: Path) -> None:
-    bench = {"clock": True, "seed": 404, "tones": 1, **GOOD_LAB}
-    device = get_registry().device("random-gyro", seed=404, bench=bench)
+def one_iteration(seed: int, experiment: dict | None = None) -> tuple[Any, dict]:
+    """Random gyro ``seed`` with one tone on a good lab's clock, and a one-iteration run of it."""
+    bench = {"clock": True, "seed": seed, "tones": 1, **GOOD_LAB}
+    device = get_registry().device("random-gyro", seed=seed, bench=bench)
     config = {
-        "device": {"name": "random-gyro", "seed": 404},
+        "device": {"name": "random-gyro", "seed": seed},
         "model": {"structure": device.structure},
         "tuning": {
             "criterion": "degenerate",
@@ -34,8 +36,13 @@ def test_a_missed_scout_is_followed_by_a_band_at_the_probes_step(tmp_path: Path)
             "acceptance_hz": 0.001,
             "max_iterations": 1,
         },
-        "experiment": {"bias_step": 3.0},
+        "experiment": experiment or {},
     }
+    return device, config
+
+
+def test_a_missed_scout_is_followed_by_a_band_at_the_probes_step(tmp_path: Path) -> None:
+    device, config = one_iteration(404, {"bias_step": 3.0})
     lines: list[str] = []
     out = tmp_path / "run"
     tune(config, out, device=device, plots=False, progress=lines.append)
@@ -64,19 +71,7 @@ def test_a_missed_verification_window_is_followed_by_a_band_at_the_probes_step(
     """Random gyro 396 (3.67 kHz, one tone, a good lab's clock): the first answer's window
     misses a mode; before, the band at 61 points followed (61 acquisitions); the 21 points of
     the probe's step locate both modes (the whole run: 275 -> 214 dwells, 261 -> 201 points)."""
-    bench = {"clock": True, "seed": 396, "tones": 1, **GOOD_LAB}
-    device = get_registry().device("random-gyro", seed=396, bench=bench)
-    config = {
-        "device": {"name": "random-gyro", "seed": 396},
-        "model": {"structure": device.structure},
-        "tuning": {
-            "criterion": "degenerate",
-            "electrodes": list(device.electrodes[:2]),
-            "start_bias": [0.0] * len(device.electrodes),
-            "acceptance_hz": 0.001,
-            "max_iterations": 1,
-        },
-    }
+    device, config = one_iteration(396)
     lines: list[str] = []
     out = tmp_path / "run"
     result = tune(config, out, device=device, plots=False, progress=lines.append)

@@ -24,6 +24,15 @@ from sysid_core.verdict.dacfloor import dac_reached
 ACCEPTANCE = 0.001
 
 
+def best_code_around(gyro: CloverleafGyro, bias: np.ndarray) -> float:
+    """The least true split over the DAC codes one step around ``bias`` (B1, B2)."""
+    step = gyro.bias_resolution
+    return min(
+        gyro.true_split_hz(bias + np.array([d1 * step, d2 * step, 0.0]))
+        for d1, d2 in itertools.product((-1, 0, 1), repeat=2)
+    )
+
+
 def config(iterations: int = 2) -> dict:
     return cloverleaf_config(ACCEPTANCE, iterations, experiment={"band_hz": [4385.0, 4445.0]})
 
@@ -38,12 +47,7 @@ def test_a_dac_too_coarse_for_the_acceptance_is_said(tmp_path: Path) -> None:
     assert not summary.converged and said
     assert "the DAC limits it: its best code there is predicted to leave" in summary.status
     # the truth agrees: no code one step around the final bias is within the acceptance
-    step = gyro.bias_resolution
-    best = min(
-        gyro.true_split_hz(summary.bias + np.array([d1 * step, d2 * step, 0.0]))
-        for d1, d2 in itertools.product((-1, 0, 1), repeat=2)
-    )
-    assert best > ACCEPTANCE
+    assert best_code_around(gyro, summary.bias) > ACCEPTANCE
     # ... and with 16 bits nothing is said
     lines.clear()
     fine = TuningRun(
@@ -88,12 +92,7 @@ def test_a_run_that_verifies_its_dac_floor_again_stops_there(tmp_path: Path) -> 
     assert not summary.converged and summary.iterations == 2
     assert "stopped: the DAC sets the floor" in summary.status
     # the truth agrees: no code one step around the final bias is within the acceptance
-    step = gyro.bias_resolution
-    best = min(
-        gyro.true_split_hz(summary.bias + np.array([d1 * step, d2 * step, 0.0]))
-        for d1, d2 in itertools.product((-1, 0, 1), repeat=2)
-    )
-    assert best > ACCEPTANCE
+    assert best_code_around(gyro, summary.bias) > ACCEPTANCE
 
 
 @pytest.mark.parametrize(
