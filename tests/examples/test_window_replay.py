@@ -6,8 +6,9 @@ combining them must predict the next window's split vector to under a millihertz
 whose rate prior lets two windows' noise read as a rate, misses by up to 0.6 mHz after the
 minutes of a local design); a replay that put the truth at the wrong bias or time, or compared
 vectors in different frames, would miss by the split's change between windows (tens of mHz).
-The acceptance, 0.5 mHz, is under the gyro's DAC floor (0.66 mHz): the run never converges and
-verifies all its iterations.
+The run's acceptance, 1 µHz, is far under what its windows can show, and its DAC is exact (no
+DAC floor stops it): the run never converges and verifies all its iterations; the replay reads
+the windows within ten times 0.5 mHz.
 """
 
 from __future__ import annotations
@@ -31,15 +32,14 @@ SEED, NOISE = 117, 1e-4
 
 def device() -> object:
     bench = {"clock": True, "seed": SEED}
-    return get_registry().device("random-gyro", seed=SEED, noise=NOISE, bench=bench)
+    return get_registry().device("random-gyro", seed=SEED, noise=NOISE, dac_bits=0, bench=bench)
 
 
 def test_every_way_predicts_the_next_split_of_a_gyro_that_does_not_drift(tmp_path: Path) -> None:
     run = device()
     model = {"drift": "track", "structure": run.structure}
-    config = degenerate_config(
-        run, {"seed": SEED, "noise": NOISE}, iterations=6, acceptance_hz=0.0005, model=model
-    )
+    options = {"seed": SEED, "noise": NOISE, "dac_bits": 0}
+    config = degenerate_config(run, options, iterations=6, acceptance_hz=1e-6, model=model)
     tune(config, tmp_path, device=run, plots=False)
     rows = replay(tmp_path, device(), acceptance_hz=0.0005)
     assert len(rows) >= 2
