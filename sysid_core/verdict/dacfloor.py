@@ -83,6 +83,5 @@ def dac_reached(
         f"the DAC sets the floor: the model's best code is the one just verified again, where "
         f"it predicts {floor_hz * 1e3:.3g} mHz and the windows put the split over "
         f"{least_hz * 1e3:.3g} mHz at 95 %, over the goal of {limit_hz * 1e3:.3g} mHz; the run "
-        "stops at that code (a finer DAC, another tuned electrode or a wider acceptance would "
-        "reach the goal)"
+        "stops at that code"
     )
