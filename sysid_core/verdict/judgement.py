@@ -290,9 +290,10 @@ def verdict(
     if not converged and stop is None and dac is not None:
         previous, bias, info = dac
         again = previous is not None and np.array_equal(np.asarray(previous), bias)
-        floor = dac_floor(info, acceptance_hz)
-        least, moves = least_split(ver, end, tracker), budget_drift_hz(tracker, end, afford)
-        stop = dac_reached(again, floor, fraction * acceptance_hz, least, moves)
+        floor = dac_floor(info, acceptance_hz) if again else None
+        if floor is not None:  # the windows' bound and the drift only where they can decide
+            least, moves = least_split(ver, end, tracker), budget_drift_hz(tracker, end, afford)
+            stop = dac_reached(again, floor, fraction * acceptance_hz, least, moves)
     if not converged and stop is None and end is not None and tracker and afford is not None:
         stop = floored(tracker, afford, fraction * acceptance_hz, end)
     return goals, converged, stop
