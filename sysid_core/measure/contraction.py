@@ -4,8 +4,8 @@ Each answer of a model that is right up to its stiffness law's error leaves a sp
 fixed fraction ``r`` of the one it stepped from: a Newton step with a Jacobian off by ``r``
 (``r`` the law's relative error where the run steps; a model that describes the gyro has
 ``r`` of 1 % or less, a law off by a third about 0.3). At the rate ``r`` seen in the last two
-verified splits (the first: the split where the run started, then the first verified one),
-verifying the next answers alone reaches the acceptance ``A`` from a split ``s`` after
+verified splits, verifying the next answers alone reaches the acceptance ``A`` from a split
+``s`` after
 
 ``n = ceil(log(A / s) / log r)`` verifications,
 
@@ -17,7 +17,10 @@ would not reach it in the iterations the budget leaves, or when the split did no
 the run then measures the local design (:class:`~sysid_core.run.lean_protocol.LeanProtocol`, and a
 run from a previous model, :class:`~sysid_core.measure.previous.PreviousModel`). Otherwise it
 fits every sweep again and verifies the next answer: a model whose answers contract fast
-(``r`` of a few percent) is not paid a design it does not need. The rate assumes the sweeps
+(``r`` of a few percent) is not paid a design it does not need. The rate is read from the
+second verification on, never from the split where the run started: the first answer carries
+the first design's law over the whole first step (volts from the sweeps), while the next one
+comes from a model that holds a sweep at the bias it steps from. The rate assumes the sweeps
 still describe the gyro; on a drifting bench sweeps an hour apart do not (:func:`aged`).
 """
 

@@ -180,13 +180,6 @@ class Knowledge:
                 taken.append(j)
         return taken
 
-    def split_at(self, bias: np.ndarray) -> float | None:
-        """The split of the first sweep at ``bias`` that located both modes (Hz), or None."""
-        m = self.nearest(bias)
-        if m is None or m.modes is None or not np.allclose(m.bias, bias, rtol=0, atol=SAME_V):
-            return None
-        return m.modes.split_hz
-
     def latest(self) -> Measured | None:
         """The latest sweep with located modes, or None."""
         located = [m for m in self.items if m.modes is not None]

@@ -67,9 +67,7 @@ class LeanProtocol(Protocol):
         self.moved = False
         self.last_verified: tuple[np.ndarray, np.ndarray] | None = None
         self.splits: list[float] = []  # every verified split, in order
-        #: The split located where the run started (the rate of its first answer), and the
-        #: points of each sweep of the latest verification (what one costs).
-        self.start_split: float | None = None
+        #: The points of each sweep of the latest verification (what one costs).
         self.verify_points: list[int] = []
         #: With ``probe``, the run's first look at the band is a probe
         #: (:mod:`sysid_core.measure.locating`); whether it found the bench quiet decides the first
@@ -116,7 +114,6 @@ class LeanProtocol(Protocol):
             for j in (j for j in todo if not self.known.has(design[j])):
                 self._learn(design[j], folder / f"exp{j}.nc")
         if it == 1:
-            self.start_split = self.known.split_at(bias)
             ctx.say(
                 f"iteration {it}: fitting {ctx.fitter.structure.name} model to "
                 f"{len(self.known)} sweeps"
@@ -255,7 +252,10 @@ class LeanProtocol(Protocol):
         if self.last_verified is None:
             return None, None
         (vb, vf), ctx = self.last_verified, self.ctx
-        last = self.splits[-2] if len(self.splits) > 1 else self.start_split
+        # the rate of two answers of models anchored on a window: the first answer's rate says
+        # how far the first design's law carried over the whole first step, not what a model
+        # holding a sweep at the bias it steps from will do next (contraction module)
+        last = self.splits[-2] if len(self.splits) > 1 else None
         try:  # the local design's sweeps it would measure, priced like the verification's
             law, radius = ctx.config.model.stiffness, LOCAL_RADIUS * ctx.step(it)
             design = ctx.design(vb, it)

@@ -132,3 +132,20 @@ def test_a_fast_fall_verifies_the_next_answer_without_a_design(tmp_path: Path) -
     assert not any("local design" in line for line in lines)
     f = device.true_modal_frequencies_hz(result.bias)
     assert result.converged and f[1] - f[0] <= 2 * 0.001
+
+
+def test_the_first_answer_does_not_set_the_rate(tmp_path: Path) -> None:
+    """Random gyro 431 (1.22 kHz, 8 tones, a good lab's clock), first design ±3 V: its first
+    answer lands 5 V away and leaves 1 Hz, a rate that asked for the local design when it was
+    read from the split at 0 V (then 420 points). The model of all sweeps holds that window, and
+    its answers fall 1 Hz -> 0.17 Hz -> 12 mHz -> under 0.1 mHz without a local design."""
+    device, options = good_lab(431, 0.2, tones=8)
+    config = degenerate_config(device, options, 6, 0.001, experiment={"bias_step": 3.0})
+    lines: list[str] = []
+    result = tune(config, tmp_path / "run", plots=False, device=device, progress=lines.append)
+    assert any(line.startswith("iteration 2: fitting all") for line in lines), "\n".join(lines)
+    assert not any("sweeps near the bias" in line for line in lines)
+    later = [p for p in (tmp_path / "run").glob("iter0[2-9]/exp*.nc")]
+    assert not later  # verifications only after the first design
+    f = device.true_modal_frequencies_hz(result.bias)
+    assert result.converged and f[1] - f[0] <= 0.001
