@@ -73,9 +73,6 @@ RESOLVED_STEP = 0.9
 #: A verification's fine window steps this many of the narrowest bandwidths a fit measured:
 #: fits scatter by 10-20 % (a step of 0.9 failed on a refit 7 % narrower).
 FINE_STEP = 0.75
-#: Two modes' grids that overlap keep one point where theirs are closer than this many of the
-#: finer step: the second resolves nothing the first does not.
-INTERLEAVED = 0.25
 #: Far points of a mode grid (half on each side), for the slowly varying terms.
 ANCHORS = 4
 #: The first electrode stepped may move each mode by about this many splits (a miss costs a
@@ -227,7 +224,7 @@ def _mode_points(
     if union is not None:
         parts = [union]
     points = _clip(np.concatenate([*parts, anchors(f, bw, plan)]), plan.band_hz)
-    return _merge(points, INTERLEAVED * float(np.min(steps)))
+    return _merge(points, 1e-3 * float(bw.min()))
 
 
 def _one_core(f: np.ndarray, steps: np.ndarray, counts: list[int]) -> np.ndarray | None:

@@ -33,20 +33,6 @@ def test_near_degenerate_modes_take_one_mode_s_points() -> None:
     np.testing.assert_allclose(gaps, gaps[0], rtol=1e-9)
 
 
-def test_interleaved_grids_keep_one_point_where_theirs_nearly_coincide() -> None:
-    """Near degenerate modes of bandwidths 0.2 and 0.95 Hz predicted to ±0.2 Hz: two grids of
-    7 points at steps 0.27 and 0.77 Hz (their union at the finer step would take 19) meet three
-    times within a sixth of the finer step (the centre and both ends of the finer grid); each
-    pair is measured once: 15 points instead of 18."""
-    guess = ModeGuess.of([2595.0, 2595.0008], [0.2, 0.95], 0.2)
-    steps, counts = lean._core_steps(guess, lean.POINTS_PER_BANDWIDTH, lean.MAX_HALF_POINTS)
-    points = mode_grid(guess, PLAN)
-    assert sum(2 * k + 1 for k in counts) == 14
-    assert _core(points, guess).size == 11
-    assert points.size == 11 + lean.ANCHORS
-    assert np.min(np.diff(points)) >= lean.INTERLEAVED * steps.min()
-
-
 def test_modes_far_apart_keep_their_own_grids() -> None:
     """Modes 1 Hz (17 bandwidths) apart: two cores of 7 points each, as before."""
     guess = ModeGuess.of([2595.0, 2596.0], [0.06, 0.06])
@@ -64,8 +50,7 @@ def test_modes_far_apart_keep_their_own_grids() -> None:
 def test_one_grid_resolves_each_mode_as_finely_with_no_more_points(
     split_bw: float, bw0: float, ratio: float, sigma_bw: float
 ) -> None:
-    """Whatever the split: each mode's step is no coarser than its own grid's (plus the quarter
-    of the finer step within which two interleaved grids keep one point), never more points.
+    """Whatever the split: each mode's step is no coarser than its own grid's, never more points.
 
     The reference is the two cores laid side by side (the grid before the union), each at its
     own step (``_core_steps``).
@@ -76,6 +61,6 @@ def test_one_grid_resolves_each_mode_as_finely_with_no_more_points(
     steps, counts = lean._core_steps(guess, lean.POINTS_PER_BANDWIDTH, lean.MAX_HALF_POINTS)
     points = mode_grid(guess, PLAN)
     got = local_steps(points, guess.frequencies_hz, bw)
-    assert np.all(got <= (steps + lean.INTERLEAVED * steps.min()) * (1 + 1e-9))
+    assert np.all(got <= steps * (1 + 1e-9))
     separate = sum(2 * k + 1 for k in counts) + lean.ANCHORS
     assert points.size <= separate
