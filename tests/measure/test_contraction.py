@@ -145,7 +145,6 @@ def test_the_first_answer_does_not_set_the_rate(tmp_path: Path) -> None:
     result = tune(config, tmp_path / "run", plots=False, device=device, progress=lines.append)
     assert any(line.startswith("iteration 2: fitting all") for line in lines), "\n".join(lines)
     assert not any("sweeps near the bias" in line for line in lines)
-    later = [p for p in (tmp_path / "run").glob("iter0[2-9]/exp*.nc")]
-    assert not later  # verifications only after the first design
+    assert not list((tmp_path / "run").glob("iter0[2-9]/exp*.nc"))  # verifications only
     f = device.true_modal_frequencies_hz(result.bias)
     assert result.converged and f[1] - f[0] <= 0.001
