@@ -1,7 +1,7 @@
 """How fast the TRUE split of random gyros moves on a simulated bench: mHz/min and ppm/h.
 
-The numbers behind the drift estimator's rate prior (``[experiment] split_motion_ppm_per_h``,
-docs/drift-model.md). For each gyro of ``--seeds`` on ``--bench`` (the benches of
+The numbers behind the trial of a rate prior in ppm of the frequency
+(docs/studies/drift-estimator.md). For each gyro of ``--seeds`` on ``--bench`` (the benches of
 ``drift_population.py``), how fast its true split leaves zero in the minute after its
 degenerate bias of B1 and B2 a minute into the bench's clock
 (``window_floor.split_drift_mhz_per_min``), in mHz/min and in ppm of its frequency per hour.
@@ -25,14 +25,10 @@ from window_floor import split_drift_mhz_per_min
 def split_rate(seed: int, bench: str, at_s: float = 60.0) -> dict:
     """Gyro ``seed``'s true split rate on ``bench`` from its degenerate bias at ``at_s``."""
     device, _ = make_device(seed, bench)
-    per_min = abs(split_drift_mhz_per_min(device, at_s)) * 1e-3 / 60.0  # Hz/s
+    mhz_per_min = abs(split_drift_mhz_per_min(device, at_s))
     f = float(device.f0_hz)
-    return {
-        "seed": seed,
-        "frequency_hz": f,
-        "mhz_per_min": per_min * 6e4,
-        "ppm_per_h": per_min * 3600.0 / f * 1e6,
-    }
+    ppm_per_h = mhz_per_min * 1e-3 * 60.0 / f * 1e6  # Hz/h over the frequency
+    return {"seed": seed, "frequency_hz": f, "mhz_per_min": mhz_per_min, "ppm_per_h": ppm_per_h}
 
 
 def main(argv: list[str] | None = None) -> int:
