@@ -20,8 +20,11 @@ fits every sweep again and verifies the next answer: a model whose answers contr
 (``r`` of a few percent) is not paid a design it does not need. The rate is read from the
 second verification on, never from the split where the run started: the first answer carries
 the first design's law over the whole first step (volts from the sweeps), while the next one
-comes from a model that holds a sweep at the bias it steps from. The rate assumes the sweeps
-still describe the gyro; on a drifting bench sweeps an hour apart do not (:func:`aged`).
+comes from a model that holds a sweep at the bias it steps from. On a drifting bench the rate
+is what the verified splits did, the drift included: sweeps that the drift has made too old for
+the answers show as a split that does not fall, and the design follows. (A rule that sent every
+tracked run to the local design once its sweeps spanned an hour was measured and dropped:
+docs/studies/design-pays.md, "Sweeps an hour old".)
 """
 
 from __future__ import annotations
@@ -30,9 +33,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from sysid_core.measure.fitter import TREND_SPAN_S
-
-__all__ = ["Costs", "aged", "too_slow", "verifications_needed"]
+__all__ = ["Costs", "too_slow", "verifications_needed"]
 
 
 @dataclass(frozen=True)
@@ -64,23 +65,6 @@ class Costs:
             return None
         once = sum(cost_s(n, k == 0) for k, n in enumerate(verify))
         return cls(once, design * cost_s(verify[0], True))
-
-
-def aged(span_s: float | None) -> str | None:
-    """Why a tracked run's sweeps are too old to be fitted together any longer, or None.
-
-    Over more than :data:`~sysid_core.measure.fitter.TREND_SPAN_S` of bench clock, charging and
-    temperature move the stiffness by as much as the bias law does
-    (:mod:`sysid_core.measure.fitter`): the fit of every sweep then describes the drift only as
-    a trend in time, and its answers miss by what the trend misses. Fresh sweeps near the bias
-    (the local design) pay then, whatever the rate.
-    """
-    if span_s is None or span_s <= TREND_SPAN_S:
-        return None
-    return (
-        f"the sweeps span {span_s / 3600:.2g} h, over which the drift moves the stiffness as much "
-        "as the bias law does"
-    )
 
 
 def verifications_needed(last_hz: float, split_hz: float, acceptance_hz: float) -> float:

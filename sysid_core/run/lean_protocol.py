@@ -17,10 +17,9 @@ import numpy as np
 import xarray as xr
 
 from sysid_core.clock.benchtime import settle as settle_s
-from sysid_core.clock.runclock import stamps_span_s
 from sysid_core.data.schema import point_times
 from sysid_core.errors import SysidError
-from sysid_core.measure.contraction import Costs, aged, too_slow
+from sysid_core.measure.contraction import Costs, too_slow
 from sysid_core.measure.evidence import WindowAssessment
 from sysid_core.measure.knowledge import Knowledge
 from sysid_core.measure.lean import (
@@ -244,10 +243,10 @@ class LeanProtocol(Protocol):
         """Why the run measures the local design now, or None (it verifies the next answer).
 
         Verifying alone must be the quicker way to the acceptance at the rate the split fell,
-        priced on the bench clock (:func:`~sysid_core.measure.contraction.too_slow`); on a
-        tracked run the sweeps must not be :func:`~sysid_core.measure.contraction.aged`; on
-        another the model of all sweeps must reproduce the verified modes
-        (:func:`~sysid_core.measure.lean.explained_gap`). With None comes the fit of all sweeps.
+        priced on the bench clock (:func:`~sysid_core.measure.contraction.too_slow`); on a run
+        that does not track the drift, the model of all sweeps must also reproduce the verified
+        modes (:func:`~sysid_core.measure.lean.explained_gap`). With None comes the fit of all
+        sweeps.
         """
         if self.last_verified is None:
             return None, None
@@ -265,7 +264,7 @@ class LeanProtocol(Protocol):
             costs = None
         split, union, tracking = float(vf[1] - vf[0]), self.known.union(), ctx.tracking
         why = too_slow(last, split, ctx.left(), ctx.config.tuning.acceptance_hz, costs)
-        if why or (tracking and (why := aged(stamps_span_s(union)))):
+        if why:
             return why, None
         model, notes = ctx.fitter.fit(union)
         f = model.modal(vb[ctx.space.index]).frequencies_hz
