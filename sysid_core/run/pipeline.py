@@ -8,7 +8,8 @@
    best, and its confidence region, where the run's measurements support it
    (:mod:`sysid_core.verdict.trust`). A goal unreachable inside the limits ends the run with
    :class:`~sysid_core.errors.UnreachableTuningError`, unless iterations remain and the best
-   reachable bias is more than ``bias_step`` away: a model identified there decides.
+   reachable bias is more than ``bias_step`` away or the model's 95 % region does not hold its
+   verdict there: a model identified there decides.
 3. Verify at the new bias (:mod:`sysid_core.measure.verification`): a split counts as measured only
    when the evidence says both modes are in a window that resolves them.
 4. Report (:mod:`sysid_core.run.summary`): the iteration's record, ``summary.json`` and plots.
@@ -116,8 +117,7 @@ class TuningRun:
                 f"plot format {plot_format!r} is not one of {', '.join(PLOT_FORMATS)}"
             )
         self.plot_format = plot_format
-        # Every component is built now, from this run's registry, so that a bad option fails
-        # before anything is measured; the fits and the criterion use these very objects.
+        # Every component is built now, so that a bad option fails before any measurement.
         parts = build_components(config, registry or get_registry(), device)
         self.structure, self.objective = parts.structure, parts.objective
         self.solver, self.criterion = parts.solver, parts.criterion

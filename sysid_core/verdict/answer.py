@@ -1,7 +1,8 @@
 """Step 3 of a run: from a fitted model to the bias applied next, in one place.
 
 :func:`answer` solves the criterion (a quadratic law by repeated linearization), continues from
-the best reachable bias when the model's "unreachable" may be its extrapolation, moves the
+the best reachable bias when the model's "unreachable" may be its extrapolation or its noise
+(:func:`~sysid_core.verdict.trust.unsure_unreachable`), moves the
 answer to the DAC code the model predicts best, does not apply an answer the run's measurements
 do not support (:mod:`sysid_core.verdict.trust`), checks the bias against the device's limits and
 attaches the answer's confidence region.
@@ -31,7 +32,7 @@ from sysid_core.tuning.criteria import (
     solve_criterion,
 )
 from sysid_core.verdict.dac import best_code
-from sysid_core.verdict.trust import untrusted_step, worse_than_measured
+from sysid_core.verdict.trust import unsure_unreachable, untrusted_step, worse_than_measured
 
 __all__ = [
     "REFUTES",
@@ -131,6 +132,7 @@ def answer(
                 last_iteration,
                 say,
                 least_measured,
+                acceptance_hz,
             )
             local = model
     step = _applied(result, local, model, space, device)
@@ -257,6 +259,7 @@ def best_effort(
     last_iteration: bool,
     say: Callable[[str], None],
     least_measured: tuple[float, np.ndarray] | None = None,
+    acceptance_hz: float | None = None,
 ) -> TuningResult:
     """Continue from the best reachable bias, or re-raise ``exc`` if that cannot help.
 
@@ -281,6 +284,9 @@ def best_effort(
     last iteration stays where it is and ends unconverged (a local model fitted hours after a
     verification on a drifting bench can find 56.9 mHz the best reachable split where that
     verification measured 3.7 mHz).
+
+    With ``acceptance_hz``, a verdict the model's own 95 % region does not hold
+    (:func:`~.trust.unsure_unreachable`) is not concluded either: the run continues from there.
     """
     refuted = (
         criterion_name == "degenerate"
@@ -309,13 +315,20 @@ def best_effort(
         best is not None
         and float(np.max(np.abs(np.asarray(best, dtype=float) - space.start_bias))) > bias_step
     )
-    if best is None or not (far or unmodelled) or (last_iteration and not unmodelled):
+    unsure = None  # the model's own region may not hold its verdict (degenerate modes)
+    if best is not None and not (far or unmodelled or last_iteration) and acceptance_hz:
+        there = _result_at(np.asarray(best, dtype=float), space, model, criterion_name)
+        unsure = unsure_unreachable(model, there, space, acceptance_hz, criterion_name)
+    doubt = far or unmodelled or unsure is not None
+    if best is None or not doubt or (last_iteration and not unmodelled):
         raise exc
     # at the last iteration the run stays where it is: a far bias this model only extrapolates
     # to would end the run there (measured: 46 Hz off on a gyro the run had brought to 5 Hz)
     bias = check_bias(device.device, space.start_bias if last_iteration else best)
     if unmodelled:
         why = f"its data span {span / 60:.3g} min of a clock and no drift was modelled"
+    elif unsure is not None:
+        why = f"its own 95 % region there holds a split of {unsure * 1e3:.3g} mHz"
     else:
         why = f"the model was identified more than {bias_step} V away"
     then = (

@@ -19,6 +19,10 @@ reach:
   biases (more electrodes than the two goals need), or the law carried where no sweep measured
   it. The run takes the linearised step instead (no longer than ``bias_step``), which the data
   around the verified bias support, and measures the local design there.
+
+And one rule for a model's verdict that the modes cannot meet: :func:`unsure_unreachable`, the
+least split the model's 95 % region holds at its best reachable bias. A verdict whose region
+reaches under the acceptance is the noise's, not the gyro's: the run measures there.
 """
 
 from __future__ import annotations
@@ -27,12 +31,14 @@ import numpy as np
 
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import split_vector_hz
-from sysid_core.tuning.criteria import TuningResult
+from sysid_core.tuning.confidence import confidence_region
+from sysid_core.tuning.criteria import BiasSpace, TuningResult
 
 __all__ = [
     "BEYOND_LINEAR",
     "WORSE",
     "WORSE_ACCEPTANCES",
+    "unsure_unreachable",
     "untrusted_step",
     "worse_than_measured",
 ]
@@ -130,3 +136,26 @@ def untrusted_step(
     out = where.copy()
     out[tuned] = b0 + step
     return out
+
+
+def unsure_unreachable(
+    model: FittedModel,
+    best: TuningResult,
+    space: BiasSpace,
+    acceptance_hz: float,
+    criterion_name: str = "degenerate",
+) -> float | None:
+    """The least split (Hz) of ``model``'s 95 % region at ``best``, if under ``acceptance_hz``.
+
+    ``best`` is the model's answer "go to the best reachable bias" of a degenerate criterion it
+    found unreachable. None when the region's least split is over the acceptance (the verdict
+    stands at 95 %), for another criterion, or for a model without a covariance. The region
+    reaches down to 0 when the ellipse of the normalised stiffness's deviation holds a
+    degenerate model (:func:`~sysid_core.tuning.confidence.confidence_region`): then the law's
+    uncertainty, not the gyro, keeps the modes apart.
+    """
+    region = None if criterion_name != "degenerate" else confidence_region(model, best, space)
+    if region is None:
+        return None
+    least = float(region.split_ci_hz[0])
+    return least if least <= acceptance_hz else None

@@ -1,0 +1,87 @@
+"""A model's verdict that the modes cannot meet stands only where its own 95 % region holds it.
+
+Truth: the cloverleaf of the paper, whose degenerate bias of B1 and B2 (2.041, 4.388 V) lies
+inside limits of (-10, 4.398) V. Fitted to the paper's sweeps with noise of 1e-3 of the peak (60
+dB), some noise draws put that bias just beyond the limit: the model finds the goal unreachable,
+its best reachable split 28-32 mHz, while its own region of the split there reaches 0. The run
+then measures there instead of ending with the error. Where the limit is 4.30 V the goal is
+truly out of reach (78 mHz at best), the region stays over the acceptance, and the verdict stands.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from sysid_cloverleaf import CloverleafGyro
+from truths import PAPER_BIASES, PAPER_FREQS, V_GYRO, cloverleaf_truth, simulate
+
+from sysid_core import fit
+from sysid_core.errors import UnreachableTuningError
+from sysid_core.model.fitted import FittedModel
+from sysid_core.plugin.registry import get_registry
+from sysid_core.tuning.criteria import BiasSpace, solve_criterion
+from sysid_core.verdict.answer import _result_at, best_effort
+from sysid_core.verdict.trust import unsure_unreachable
+
+ACCEPTANCE = 1e-3
+NOISE = 1e-3  # of the peak: 60 dB
+
+
+def verdict(seed: int, high: float) -> tuple[FittedModel, BiasSpace, UnreachableTuningError]:
+    """A noisy fit's "unreachable" verdict with B2 limited to ``high`` volts."""
+    model = fit(
+        simulate(cloverleaf_truth(), PAPER_BIASES, PAPER_FREQS, noise_peak=NOISE, seed=seed)
+    )
+    start = np.array([2.0, high - 0.2, 0.0])
+    space = BiasSpace(["B1", "B2", "B3"], ["B1", "B2"], start, (-10.0, high), V_GYRO)
+    reg = get_registry()
+    criterion = reg.criterion("degenerate", solver=reg.solver("clarabel"))
+    with pytest.raises(UnreachableTuningError) as err:
+        solve_criterion(criterion, model, space)
+    return model, space, err.value
+
+
+def effort(model: FittedModel, space: BiasSpace, exc: UnreachableTuningError, lines: list[str]):
+    """:func:`best_effort` at an iteration that is not the last, 1 V of design step."""
+    device = SimpleNamespace(device=CloverleafGyro(seed=1))
+    return best_effort(
+        exc,
+        "degenerate",
+        model,
+        space,
+        device,
+        2,
+        1.0,
+        False,
+        lines.append,  # type: ignore[arg-type]
+        acceptance_hz=ACCEPTANCE,
+    )
+
+
+@pytest.mark.parametrize("seed", [0, 4])
+def test_a_verdict_its_own_region_does_not_hold_sends_the_run_there(seed: int) -> None:
+    """The truth is reachable; the noisy model says not, 28-32 mHz short; its region reaches 0."""
+    truth = fit(simulate(cloverleaf_truth(), PAPER_BIASES, PAPER_FREQS))
+    reg = get_registry()
+    criterion = reg.criterion("degenerate", solver=reg.solver("clarabel"))
+    model, space, exc = verdict(seed, 4.398)
+    reached, _ = solve_criterion(criterion, truth, space)  # the noise-free fit reaches it
+    assert reached.bias[1] <= 4.398 and reached.split_hz < ACCEPTANCE
+    lines: list[str] = []
+    result = effort(model, space, exc, lines)
+    np.testing.assert_allclose(result.bias, exc.best_bias)
+    assert "95 % region there holds a split of" in lines[-1]
+    assert "continuing from that bias" in lines[-1]
+
+
+def test_a_verdict_its_region_holds_ends_the_run() -> None:
+    """B2 limited to 4.30 V: 78 mHz at best, a region from about 4 mHz up: the error stands."""
+    model, space, exc = verdict(1, 4.30)
+    assert exc.best_value is not None and exc.best_value > 50 * ACCEPTANCE
+    best = np.asarray(exc.best_bias, dtype=float)
+    there = _result_at(best, space, model, "degenerate")
+    assert unsure_unreachable(model, there, space, ACCEPTANCE) is None
+    with pytest.raises(UnreachableTuningError):
+        effort(model, space, exc, [])
