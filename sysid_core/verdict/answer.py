@@ -315,10 +315,11 @@ def best_effort(
         best is not None
         and float(np.max(np.abs(np.asarray(best, dtype=float) - space.start_bias))) > bias_step
     )
-    unsure = None  # the model's own region may not hold its verdict (degenerate modes)
-    if best is not None and not (far or unmodelled or last_iteration) and acceptance_hz:
-        there = _result_at(np.asarray(best, dtype=float), space, model, criterion_name)
-        unsure = unsure_unreachable(model, there, space, acceptance_hz, criterion_name)
+    unsure = None  # degenerate modes: the model's own region may not hold its verdict
+    if criterion_name == "degenerate" and acceptance_hz and best is not None:
+        if not (far or unmodelled or last_iteration):
+            there = _result_at(np.asarray(best, dtype=float), space, model, criterion_name)
+            unsure = unsure_unreachable(model, there, space, acceptance_hz)
     doubt = far or unmodelled or unsure is not None
     if best is None or not doubt or (last_iteration and not unmodelled):
         raise exc

@@ -139,22 +139,18 @@ def untrusted_step(
 
 
 def unsure_unreachable(
-    model: FittedModel,
-    best: TuningResult,
-    space: BiasSpace,
-    acceptance_hz: float,
-    criterion_name: str = "degenerate",
+    model: FittedModel, best: TuningResult, space: BiasSpace, acceptance_hz: float
 ) -> float | None:
     """The least split (Hz) of ``model``'s 95 % region at ``best``, if under ``acceptance_hz``.
 
     ``best`` is the model's answer "go to the best reachable bias" of a degenerate criterion it
     found unreachable. None when the region's least split is over the acceptance (the verdict
-    stands at 95 %), for another criterion, or for a model without a covariance. The region
+    stands at 95 %) or for a model without a covariance. The region
     reaches down to 0 when the ellipse of the normalised stiffness's deviation holds a
     degenerate model (:func:`~sysid_core.tuning.confidence.confidence_region`): then the law's
     uncertainty, not the gyro, keeps the modes apart.
     """
-    region = None if criterion_name != "degenerate" else confidence_region(model, best, space)
+    region = confidence_region(model, best, space)
     if region is None:
         return None
     least = float(region.split_ci_hz[0])
