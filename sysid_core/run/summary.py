@@ -26,7 +26,7 @@ from sysid_core.run.record import (
     verified_splits,
 )
 from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion, Goal
-from sysid_core.verdict.answer import dac_floor
+from sysid_core.verdict.dacfloor import dac_floor
 
 __all__ = [
     "CONFIDENCE_KEYS",
@@ -211,7 +211,7 @@ def status_line(
     """One sentence on how a run stands after iteration ``it``.
 
     ``dac_floor_hz``: the split the model predicts at the last answer's DAC code when the DAC
-    limits it (:func:`sysid_core.verdict.answer.dac_floor`), said with goals not met.
+    limits it (:func:`sysid_core.verdict.dacfloor.dac_floor`), said with goals not met.
     """
     if converged:
         return f"converged after {it} iteration(s): {ver.describe()}; goals met: " + ", ".join(

@@ -11,9 +11,8 @@ attaches the answer's confidence region.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -32,6 +31,7 @@ from sysid_core.tuning.criteria import (
     solve_criterion,
 )
 from sysid_core.verdict.dac import best_code
+from sysid_core.verdict.dacfloor import dac_floor
 from sysid_core.verdict.trust import unsure_unreachable, untrusted_step, worse_than_measured
 
 __all__ = [
@@ -40,13 +40,8 @@ __all__ = [
     "answer",
     "apply_best_code",
     "best_effort",
-    "dac_floor",
     "reach_with",
 ]
-
-#: The DAC's floor is said when its best code near an answer is predicted to leave at least this
-#: share of the acceptance.
-DAC_FLOOR_SHARE = 0.5
 
 #: A verification that measured a split under this share of the best split a model can reach
 #: refutes the model's verdict "cannot be made degenerate" (:func:`best_effort`).
@@ -102,11 +97,11 @@ def answer(
     (:func:`reach_with`); otherwise :func:`best_effort` decides, told the least split a
     verification of the run measured and its bias (``least_measured``). With
     ``acceptance_hz``, an answer whose DAC code leaves a sizeable share of it is said
-    (:func:`dac_floor`). An answer the run's measurements do not support is not applied
-    (:mod:`sysid_core.verdict.trust`): the run goes back to the least measured split's bias, or
-    takes the linearised step from the latest verified bias (``latest_measured``), no longer
-    than the local design's step (``local_step``, else ``bias_step``); from a model of the sweeps
-    near the bias only (``local_fit``), at any split.
+    (:func:`~sysid_core.verdict.dacfloor.dac_floor`). An answer the run's measurements do not
+    support is not applied (:mod:`sysid_core.verdict.trust`): the run goes back to the least
+    measured split's bias, or takes the linearised step from the latest verified bias
+    (``latest_measured``), no longer than the local design's step (``local_step``, else
+    ``bias_step``); from a model of the sweeps near the bias only (``local_fit``), at any split.
     """
     try:
         result, local = solve_criterion(criterion, model, space)
@@ -133,6 +128,7 @@ def answer(
                 say,
                 least_measured,
                 acceptance_hz,
+                local_fit or it == 1,
             )
             local = model
     step = _applied(result, local, model, space, device)
@@ -190,22 +186,6 @@ def answer(
     return step
 
 
-def dac_floor(info: Mapping[str, Any], acceptance_hz: float | None) -> float | None:
-    """The split the model predicts at an answer's DAC code, if the DAC limits it, else None.
-
-    ``info``: the answer's ``TuningResult.info`` (or its ``tuning.json``). The DAC limits it
-    when the answer was moved to a DAC code (``"dac_code"``), its goal was reachable, and the
-    code leaves at least :data:`DAC_FLOOR_SHARE` of ``acceptance_hz``: the codes around the
-    answer are too coarse for the acceptance (a 22 kHz gyro, 16 bits: 0.70 mHz
-    predicted at the best code, 1.1-1.3 mHz measured, acceptance 1 mHz).
-    """
-    code = info.get("dac_code")
-    if acceptance_hz is None or not code or "unreachable" in info:
-        return None
-    split = float(code["predicted_split_hz_chosen"])
-    return split if split >= DAC_FLOOR_SHARE * acceptance_hz else None
-
-
 def reach_with(
     criterion: TuningCriterion, model: FittedModel, space: BiasSpace
 ) -> tuple[TuningResult, FittedModel, BiasSpace] | None:
@@ -260,6 +240,7 @@ def best_effort(
     say: Callable[[str], None],
     least_measured: tuple[float, np.ndarray] | None = None,
     acceptance_hz: float | None = None,
+    identified_here: bool = True,
 ) -> TuningResult:
     """Continue from the best reachable bias, or re-raise ``exc`` if that cannot help.
 
@@ -287,6 +268,10 @@ def best_effort(
 
     With ``acceptance_hz``, a verdict the model's own 95 % region does not hold
     (:func:`~.trust.unsure_unreachable`) is not concluded either: the run continues from there.
+
+    Nor is that of a model not ``identified_here`` (a lean run's fit of every sweep: its law is
+    the first design's, extrapolated to windows; its region states the noise, not that): the
+    run moves to the best reachable bias and measures the local design there.
     """
     refuted = (
         criterion_name == "degenerate"
@@ -317,10 +302,10 @@ def best_effort(
     )
     unsure = None  # degenerate modes: the model's own region may not hold its verdict
     if criterion_name == "degenerate" and acceptance_hz and best is not None:
-        if not (far or unmodelled or last_iteration):
+        if identified_here and not (far or unmodelled or last_iteration):
             there = _result_at(np.asarray(best, dtype=float), space, model, criterion_name)
             unsure = unsure_unreachable(model, there, space, acceptance_hz)
-    doubt = far or unmodelled or unsure is not None
+    doubt = far or unmodelled or unsure is not None or not identified_here
     if best is None or not doubt or (last_iteration and not unmodelled):
         raise exc
     # at the last iteration the run stays where it is: a far bias this model only extrapolates
@@ -330,6 +315,8 @@ def best_effort(
         why = f"its data span {span / 60:.3g} min of a clock and no drift was modelled"
     elif unsure is not None:
         why = f"its own 95 % region there holds a split of {unsure * 1e3:.3g} mHz"
+    elif not identified_here:
+        why = "the model was not identified around this bias (a fit of every sweep so far)"
     else:
         why = f"the model was identified more than {bias_step} V away"
     then = (

@@ -1,13 +1,15 @@
-"""The floor a DAC sets: when a run stops at the code it verified again.
+"""The floor a DAC sets: said at an answer, and where a run stops at the code it verified again.
 
 A DAC applies a bias only to within its step, so near degenerate modes the codes around an
-answer may all leave more than the acceptance (:func:`~sysid_core.verdict.answer.dac_floor`).
-A run whose answer is the code it has just verified, where the model and the windows agree that
+answer may all leave more than the acceptance (:func:`dac_floor` says so). A run whose answer is the code it has just verified, where the model and the windows agree that
 the split is over the goal, can only measure that code again: :func:`dac_reached` stops it
 there, unless the split may drift by the floor's size in the time the run has left.
 """
 
 from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 from scipy.stats import rice
@@ -16,7 +18,27 @@ from sysid_core.drift.tracker import Tracker
 from sysid_core.measure.verification import Verification
 from sysid_core.tuning.confidence import split_interval
 
-__all__ = ["budget_drift_hz", "dac_reached", "least_split"]
+__all__ = ["DAC_FLOOR_SHARE", "budget_drift_hz", "dac_floor", "dac_reached", "least_split"]
+
+#: The DAC's floor is said when its best code near an answer is predicted to leave at least this
+#: share of the acceptance.
+DAC_FLOOR_SHARE = 0.5
+
+
+def dac_floor(info: Mapping[str, Any], acceptance_hz: float | None) -> float | None:
+    """The split the model predicts at an answer's DAC code, if the DAC limits it, else None.
+
+    ``info``: the answer's ``TuningResult.info`` (or its ``tuning.json``). The DAC limits it
+    when the answer was moved to a DAC code (``"dac_code"``), its goal was reachable, and the
+    code leaves at least :data:`DAC_FLOOR_SHARE` of ``acceptance_hz``: the codes around the
+    answer are too coarse for the acceptance (a 22 kHz gyro, 16 bits: 0.70 mHz
+    predicted at the best code, 1.1-1.3 mHz measured, acceptance 1 mHz).
+    """
+    code = info.get("dac_code")
+    if acceptance_hz is None or not code or "unreachable" in info:
+        return None
+    split = float(code["predicted_split_hz_chosen"])
+    return split if split >= DAC_FLOOR_SHARE * acceptance_hz else None
 
 
 def least_split(
@@ -64,7 +86,7 @@ def dac_reached(
 
     ``repeated``: the answer is the DAC code verified just before, so the model's best code
     stays where it was and any later window measures this code again. The model predicts that
-    it leaves ``floor_hz`` (:func:`~sysid_core.verdict.answer.dac_floor`), over the goal's
+    it leaves ``floor_hz`` (:func:`dac_floor`), over the goal's
     ``limit_hz``, and the windows put the split there over it at 95 % too (``least_hz``,
     :func:`least_split`): no code the run can apply meets the goal, and more windows of this
     one would only measure it again. Where the windows are too noisy to tell (a fast gyro at

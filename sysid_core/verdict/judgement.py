@@ -69,8 +69,7 @@ from sysid_core.measure.verification import Verification
 from sysid_core.model.fitted import FittedModel
 from sysid_core.tuning.confidence import split_interval
 from sysid_core.tuning.criteria import Goal, TuningCriterion
-from sysid_core.verdict.answer import dac_floor
-from sysid_core.verdict.dacfloor import budget_drift_hz, dac_reached, least_split
+from sysid_core.verdict.dacfloor import budget_drift_hz, dac_floor, dac_reached, least_split
 
 __all__ = [
     "BLIND",
@@ -272,7 +271,7 @@ def verdict(
     stops the run when the ``failed_before`` ones just before it showed none either
     (:func:`blind`). ``dac``: the bias verified just before (None: none), this one and its
     answer's ``info``: a run whose answer is the code it verified just before, where the DAC
-    limits it (:func:`~sysid_core.verdict.answer.dac_floor`) short of the goal, stops there
+    limits it (:func:`~sysid_core.verdict.dacfloor.dac_floor`) short of the goal, stops there
     (:func:`dac_reached`).
     """
     if not ver.verified or ver.frequencies_hz is None or ver.split_hz is None:

@@ -18,8 +18,7 @@ from truths import cloverleaf_config, write_toml
 from sysid_core.cli import main
 from sysid_core.run.config import parse_config
 from sysid_core.run.pipeline import TuningRun
-from sysid_core.verdict.answer import DAC_FLOOR_SHARE, dac_floor
-from sysid_core.verdict.dacfloor import dac_reached
+from sysid_core.verdict.dacfloor import DAC_FLOOR_SHARE, dac_floor, dac_reached
 
 ACCEPTANCE = 0.001
 

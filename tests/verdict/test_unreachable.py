@@ -5,7 +5,9 @@ inside limits of (-10, 4.398) V. Fitted to the paper's sweeps with noise of 1e-3
 dB), some noise draws put that bias just beyond the limit: the model finds the goal unreachable,
 its best reachable split 28-32 mHz, while its own region of the split there reaches 0. The run
 then measures there instead of ending with the error. Where the limit is 4.30 V the goal is
-truly out of reach (78 mHz at best), the region stays over the acceptance, and the verdict stands.
+truly out of reach (78 mHz at best), the region stays over the acceptance, and the verdict stands,
+but only from a model identified around the bias: a lean run's fit of every sweep extrapolates
+the first design's law, which its region does not state, and moves to measure the local design.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from sysid_core.errors import UnreachableTuningError
 from sysid_core.model.fitted import FittedModel
 from sysid_core.plugin.registry import get_registry
 from sysid_core.tuning.criteria import BiasSpace, solve_criterion
-from sysid_core.verdict.answer import _result_at, best_effort
+from sysid_core.verdict.answer import _result_at, answer, best_effort
 from sysid_core.verdict.trust import unsure_unreachable
 
 ACCEPTANCE = 1e-3
@@ -85,3 +87,38 @@ def test_a_verdict_its_region_holds_ends_the_run() -> None:
     assert unsure_unreachable(model, there, space, ACCEPTANCE) is None
     with pytest.raises(UnreachableTuningError):
         effort(model, space, exc, [])
+
+
+def test_only_a_model_identified_around_the_bias_concludes_the_modes_cannot_meet() -> None:
+    """The same verdict from a lean run's fit of every sweep (not a local one) at its second
+    iteration moves the run to the best reachable bias; a local fit's, or the first
+    iteration's (its design is around the bias), or the last iteration's, stands."""
+    model, space, exc = verdict(1, 4.30)
+    reg = get_registry()
+    criterion = reg.criterion("degenerate", solver=reg.solver("clarabel"))
+    device = SimpleNamespace(device=CloverleafGyro(seed=1))
+
+    def step(it: int, local_fit: bool, last: bool, lines: list[str]):
+        return answer(
+            criterion,
+            model,
+            space,
+            device,  # type: ignore[arg-type]
+            it,
+            bias_step=1.0,
+            last_iteration=last,
+            say=lines.append,
+            acceptance_hz=ACCEPTANCE,
+            local_fit=local_fit,
+        )
+
+    lines: list[str] = []
+    moved = step(2, False, False, lines)
+    assert moved.moved and "unreachable" in moved.result.info
+    best = np.asarray(exc.best_bias, dtype=float)
+    np.testing.assert_allclose(moved.bias[space.index], best[space.index], atol=1e-3)
+    said = next(line for line in lines if "cannot" in line or "unreachable" in line)
+    assert "not identified around this bias" in said and "continuing from that bias" in said
+    for it, local_fit, last in ((2, True, False), (1, False, False), (2, False, True)):
+        with pytest.raises(UnreachableTuningError):
+            step(it, local_fit, last, [])
