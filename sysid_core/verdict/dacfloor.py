@@ -1,9 +1,10 @@
 """The floor a DAC sets: said at an answer, and where a run stops at the code it verified again.
 
 A DAC applies a bias only to within its step, so near degenerate modes the codes around an
-answer may all leave more than the acceptance (:func:`dac_floor` says so). A run whose answer is the code it has just verified, where the model and the windows agree that
-the split is over the goal, can only measure that code again: :func:`dac_reached` stops it
-there, unless the split may drift by the floor's size in the time the run has left.
+answer may all leave more than the acceptance (:func:`dac_floor` says so). A run whose answer
+is the code it has just verified, where the model and the windows agree that the split is over
+the goal, can only measure that code again: :func:`dac_reached` stops it there, unless the
+split may drift by the floor's size in the time the run has left.
 """
 
 from __future__ import annotations
