@@ -5,7 +5,8 @@ of ``M^{-1/2} K M^{-1/2}``), so two electrodes whose stiffness acts along differ
 meet them. Every further electrode tuned costs its own experiments in every design (two per
 electrode in a two-sided design, eq. (18)) and adds nothing the answer needs: on random gyros
 of 2-6 electrodes the designs of a run tuning all of them took twice the bench time of one
-tuning the first two, for the same result (docs/studies/dwells.md, "Fresh outside gyros").
+tuning the first two, for the same result (docs/studies/dwells.md, "A pair of electrodes,
+chosen by the run").
 
 So a lean run given more than two electrodes for the degenerate criterion first steps each of
 them once (the linear law's rank condition, ``n + 1`` sweeps), fits that law, and asks each pair
