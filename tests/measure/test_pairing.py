@@ -79,7 +79,9 @@ def test_two_electrodes_leave_nothing_to_choose(truth: GyroTruth) -> None:
     assert least_voltage_pair(two, np.zeros(2), (-10.0, 10.0), truth.structure_potential) is None
 
 
-def _run(tmp_path: Path, pair: bool, iterations: int = 6) -> tuple[Path, dict, object]:
+def _run(
+    tmp_path: Path, pair: bool, iterations: int = 6, resume: bool = False
+) -> tuple[Path, dict, object]:
     seed = 588  # six electrodes (and a seventh not offered)
     device = get_registry().device("random-gyro", seed=seed, noise=1e-3)
     config = degenerate_config(device, {"seed": seed, "noise": 1e-3}, iterations=iterations)
@@ -87,7 +89,7 @@ def _run(tmp_path: Path, pair: bool, iterations: int = 6) -> tuple[Path, dict, o
     config["tuning"]["pair"] = pair
     config["tuning"]["acceptance_hz"] = 0.001
     out = tmp_path / f"pair-{pair}"
-    tune(config, out, device=device, plots=False)
+    tune(config, out, device=device, plots=False, resume=resume)
     return out, json.loads((out / "summary.json").read_text()), device
 
 
@@ -111,3 +113,10 @@ def test_a_run_given_six_electrodes_tunes_a_pair_and_reaches_the_goal(tmp_path: 
     # the pair's first design: the centre and each electrode of the pair up and down
     first = summary["history"][0]["experiments"]
     assert len(first) == 5
+    # --resume reads every sweep back, chooses the same pair and ends where the run ended
+    _, again, _ = _run(tmp_path, True, resume=True)
+    assert (again["tuned"], again["bias"], again["points"]) == (
+        summary["tuned"],
+        summary["bias"],
+        summary["points"],
+    )
