@@ -6,7 +6,8 @@ already tell (:mod:`.knowledge`; a previous run's model: :mod:`.previous`), loca
 in the band (:mod:`.locating`, :mod:`.zoom`), the evidence that a sweep shows both modes
 (:mod:`.evidence`), a verification window and its reading (:mod:`.verification`), repeated
 passes of a noisy window (:mod:`.passes`), when a slow contraction calls for a new design
-(:mod:`.contraction`) and the run's fits of what it measured (:mod:`.fitter`).
+(:mod:`.contraction`), which pair of electrodes degenerate modes need (:mod:`.pairing`) and the
+run's fits of what it measured (:mod:`.fitter`).
 
 May import: everything below it, and :mod:`sysid_core.clock`.
 """

@@ -97,6 +97,26 @@ class Knowledge:
         self.items.append(Measured(sweep.assign_coords(epoch=("experiment", epochs)), modes))
         self.applied.append(np.asarray(sweep["bias"].sel(electrode=self.tuned).values, dtype=float))
 
+    def retune(self, tuned: Sequence[str], bias: np.ndarray) -> None:
+        """Tune ``tuned`` from now on, the other electrodes held at ``bias``.
+
+        The sweeps that moved any other electrode away from ``bias`` are set aside: they stay
+        on file, and no fit of the tuned electrodes can use them.
+        """
+        names = [str(e) for e in self.items[0].data["electrode"].values] if self.items else []
+        others = [k for k, e in enumerate(names) if e not in tuned]
+        held = np.asarray(bias, dtype=float)[others]
+        self.items = [
+            m
+            for m in self.items
+            if np.allclose(np.asarray(m.bias, dtype=float)[others], held, rtol=0, atol=SAME_V)
+        ]
+        self.tuned = list(tuned)
+        self.applied = [
+            np.asarray(m.data["bias"].sel(electrode=self.tuned).values, dtype=float)
+            for m in self.items
+        ]
+
     def __len__(self) -> int:
         """The number of sweeps kept."""
         return len(self.items)

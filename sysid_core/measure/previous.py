@@ -133,5 +133,7 @@ def check_prior(model: FittedModel, tuned: list[str]) -> None:
     if list(model.electrodes) != list(tuned):
         raise ConfigError(
             f"the model given (--from-model) has electrodes {list(model.electrodes)}, the run "
-            f"tunes {list(tuned)}: give a model fitted with the same [tuning] electrodes"
+            f"tunes {list(tuned)}: give a model fitted with the same [tuning] electrodes (a "
+            "run that chose a pair of them, [tuning] pair, fitted those two: set [tuning] "
+            "electrodes to that pair)"
         )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -61,6 +62,10 @@ class RunContext:
         """
         exp = self.config.experiment
         return self.config.tuning.acceptance_hz, exp.max_passes, exp.dwell_s
+
+    def retune(self, tuned: list[str]) -> None:
+        """Tune ``tuned`` from now on (a pair chosen among the configured electrodes)."""
+        self.space = dataclasses.replace(self.space, tuned=list(tuned))
 
     def step(self, it: int) -> float:
         """The bias step of iteration ``it`` (volts)."""

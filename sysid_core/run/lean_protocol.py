@@ -36,8 +36,9 @@ from sysid_core.measure.lean import (
 from sysid_core.measure.locating import locate as locate_modes
 from sysid_core.measure.locating import probe_first, probe_points
 from sysid_core.measure.motion import motion_allowance
+from sysid_core.measure.pairing import least_voltage_pair
 from sysid_core.measure.previous import PreviousModel
-from sysid_core.measure.sweeps import SweepPlan
+from sysid_core.measure.sweeps import SweepPlan, design_experiments
 from sysid_core.measure.verification import Band, Verification, modes_at
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.context import RunContext
@@ -102,8 +103,8 @@ class LeanProtocol(Protocol):
             self.local = True
             ctx.say(f"iteration {it}: {why}; fitting the sweeps near the bias from now on")
         radius = LOCAL_RADIUS * ctx.step(it)
-        if it == 1 and not self.known.has(bias):  # the centre first: is the bench quiet?
-            self._learn(bias, folder / "exp0.nc")
+        if it == 1:  # the centre first (is the bench quiet?), then the electrodes to tune
+            self._pair(bias, folder)
         law = ctx.config.model.stiffness
         if it == 1 or not self.known.meets_rank(bias, radius, law):
             design = ctx.design(bias, it, quiet=self.quiet and it == 1)
@@ -119,6 +120,37 @@ class LeanProtocol(Protocol):
             )
             return self.known.union(), None
         return self.known.near(bias, radius), None
+
+    def _pair(self, bias: np.ndarray, folder: Path) -> None:
+        """The centre of the first design, then the pair of electrodes to tune.
+
+        With ``[tuning] pair`` (the default), the degenerate criterion and more than two
+        electrodes: each stepped once (``exp-<electrode>.nc``), the linear law fitted, and the
+        pair that reaches degenerate modes with the least voltage tuned from then on
+        (:mod:`sysid_core.measure.pairing`); the other electrodes stay at ``bias``.
+        """
+        ctx = self.ctx
+        if not self.known.has(bias):
+            self._learn(bias, folder / "exp0.nc")
+        tuned, tuning = list(ctx.space.tuned), ctx.config.tuning
+        if not (tuning.pair and tuning.criterion == "degenerate" and len(tuned) > 2):
+            return
+        steps = design_experiments(bias, ctx.space.index, ctx.step(1), ctx.space.limits)
+        for row, name in zip(steps[1:], tuned, strict=True):
+            if not self.known.has(row):
+                self._learn(row, folder / f"exp-{name}.nc")
+        model, _ = ctx.fitter.fit(self.known.union())
+        sp = ctx.space
+        pair = least_voltage_pair(model, bias[sp.index], sp.limits, sp.structure_potential)
+        if pair is None:
+            ctx.say(
+                "iteration 1: by the first sweeps' law no pair of the electrodes reaches "
+                "degenerate modes inside the limits; tuning all of them"
+            )
+            return
+        ctx.say(f"iteration 1: {pair.describe(tuned)}")
+        ctx.retune(list(pair.electrodes))
+        self.known.retune(pair.electrodes, bias)
 
     def every_sweep(self, it: int, bias: np.ndarray) -> xr.Dataset | None:
         """Every sweep so far, if the run fits only the sweeps near ``bias`` (and there are more).

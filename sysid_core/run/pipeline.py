@@ -2,14 +2,12 @@
 
 1. Measure and fit (:mod:`sysid_core.run.protocols`): the experiments of eq. (18) around the
    current bias, checked against the rank condition (6), measured where the protocol says
-   (the paper's full sweeps, or the lean protocol's points where the modes are), and one
-   bias-dependent model fitted to them.
+   (the paper's full sweeps, or the lean protocol's points where the modes are; its pair of
+   electrodes, :mod:`sysid_core.measure.pairing`), and one bias-dependent model fitted to them.
 2. Answer (:mod:`sysid_core.verdict.answer`): the criterion's bias, the DAC code the model predicts
    best, and its confidence region, where the run's measurements support it
-   (:mod:`sysid_core.verdict.trust`). A goal unreachable inside the limits ends the run with
-   :class:`~sysid_core.errors.UnreachableTuningError`, unless iterations remain and the best
-   reachable bias is more than ``bias_step`` away or the model's 95 % region does not hold its
-   verdict there: a model identified there decides.
+   (:mod:`sysid_core.verdict.trust`). A goal unreachable inside the limits ends the run
+   (:class:`~sysid_core.errors.UnreachableTuningError`) where a model identified there says so.
 3. Verify at the new bias (:mod:`sysid_core.measure.verification`): a split counts as measured only
    when the evidence says both modes are in a window that resolves them.
 4. Report (:mod:`sysid_core.run.summary`): the iteration's record, ``summary.json`` and plots.
@@ -265,6 +263,7 @@ class TuningRun:
                 notes=self.notes,
                 drift=(self.drift_hz_per_h, self.drift_split_hz_per_h),
                 budget_s=self.clock.limit_s,
+                tuned=self.space.tuned,
             )
             if stop is not None:  # a verdict's reason to stop, like the budget's
                 summary = summary.stopped_by(stop, self.notes, spent, self.bench)
@@ -302,6 +301,7 @@ class TuningRun:
     ) -> tuple[xr.Dataset, FittedModel]:
         """Steps 1-2: the protocol's data, its model (saved) and the fit's notes (kept)."""
         ds, prefit = self.protocol.data(it, bias, folder, center_hz, split_hz)
+        self.space = self.protocol.ctx.space  # the protocol may tune a pair of the electrodes
         model, notes = prefit[1:] if prefit is not None else self.fitter.fit(ds)
         for note in notes:  # notes of this run, not user warnings
             self.notes.append(f"iteration {it}: {note}")

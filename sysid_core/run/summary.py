@@ -245,6 +245,7 @@ def summarize(
     notes: list[str],
     drift: tuple[float | None, float | None] = (None, None),
     budget_s: float | None = None,
+    tuned: list[str] | None = None,
 ) -> RunSummary:
     """The run's summary after the last iteration of ``history`` (a new object).
 
@@ -256,7 +257,8 @@ def summarize(
     acquisition, as far as they are known), else the estimate ``acquisitions × dwell +
     bias_changes × settle_s`` (``"estimate"``; without ``settle_s`` the bias changes are not
     counted); :func:`sysid_core.clock.budget.spent_s`. ``drift``: the common and split drift
-    rates found (Hz per hour); ``budget_s``: the bench-time budget.
+    rates found (Hz per hour); ``budget_s``: the bench-time budget; ``tuned``: the electrodes
+    the run tunes, when a pair of them was chosen after the start.
     """
     last = history[-1]
     (dwell_s, dwell_source), (settle_s, settle_source) = rates
@@ -266,6 +268,7 @@ def summarize(
     by_purpose, split = _clock_parts(bench)
     return dataclasses.replace(
         before,
+        tuned=list(before.tuned if tuned is None else tuned),
         bias=list(last.verified_bias),
         split_hz=ver.split_hz,
         frequency_hz=ver.frequency_hz,

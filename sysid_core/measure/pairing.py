@@ -1,0 +1,122 @@
+"""Which two electrodes a degenerate tuning needs: the pair that reaches it with the least voltage.
+
+Degenerate modes are two equations, the two components of the split vector (the traceless part
+of ``M^{-1/2} K M^{-1/2}``), so two electrodes whose stiffness acts along different axes can
+meet them. Every further electrode tuned costs its own experiments in every design (two per
+electrode in a two-sided design, eq. (18)) and adds nothing the answer needs: on random gyros
+of 2-6 electrodes the designs of a run tuning all of them took twice the bench time of one
+tuning the first two, for the same result (docs/studies/dwells.md, "A pair of electrodes,
+chosen by the run").
+
+So a lean run given more than two electrodes for the degenerate criterion first steps each of
+them once (the linear law's rank condition, ``n + 1`` sweeps), fits that law, and asks each pair
+``(a, b)`` for its exact degenerate bias with the other electrodes where they are
+(:func:`~sysid_core.model.modal.degenerate_w`; of the two roots ``v_gyro ± √w`` of each
+electrode, the one nearer its bias inside the limits). :func:`least_voltage_pair` returns the
+pair whose bias lies inside the limits with the smallest largest step from the current bias: the
+shortest extrapolation of the law it was fitted with. The run then tunes that pair; the other
+electrodes stay at their bias. No pair inside the limits: every electrode stays tuned.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+
+from sysid_core.data.schema import squared_potentials
+from sysid_core.model.fitted import FittedModel
+from sysid_core.model.modal import degenerate_w
+
+__all__ = ["Pair", "least_voltage_pair"]
+
+
+@dataclass(frozen=True)
+class Pair:
+    """The chosen pair: its electrodes, their degenerate bias by the law, and the step there.
+
+    Attributes
+    ----------
+    electrodes : tuple of str
+        The two electrodes, in the model's order.
+    bias : ndarray
+        Their bias (volts) that the fitted law makes degenerate.
+    step_v : float
+        The largest change of the two from their current bias (volts).
+    """
+
+    electrodes: tuple[str, str]
+    bias: np.ndarray
+    step_v: float
+
+    def describe(self, among: list[str]) -> str:
+        """One line for the progress."""
+        a, b = self.electrodes
+        return (
+            f"tuning {a} and {b} of {', '.join(among)}: the pair whose degenerate bias by the "
+            f"first sweeps' law ({self.bias[0]:.3f}, {self.bias[1]:.3f} V) lies the least "
+            f"from the current bias ({self.step_v:.3g} V); the others stay where they are"
+        )
+
+
+def least_voltage_pair(
+    model: FittedModel,
+    bias: np.ndarray,
+    limits: tuple[float, float],
+    structure_potential: float,
+) -> Pair | None:
+    """The pair of ``model``'s electrodes that reaches degenerate modes with the smallest step.
+
+    Parameters
+    ----------
+    model : FittedModel
+        A model of the linear law over every candidate electrode (``model.Kp``, one per
+        electrode in ``model.electrodes``).
+    bias : ndarray
+        The candidates' current bias (volts), in the model's order.
+    limits : tuple of float
+        The device's bias limits (volts).
+    structure_potential : float
+        ``v_gyro`` (volts).
+
+    Returns
+    -------
+    Pair or None
+        None when no pair has a degenerate bias inside the limits (or the model has two
+        electrodes or fewer).
+    """
+    names = [str(e) for e in model.electrodes]
+    kp = [np.asarray(k, dtype=float) for k in model.Kp]
+    if len(names) <= 2 or len(kp) != len(names):
+        return None
+    bias = np.asarray(bias, dtype=float)
+    w = squared_potentials(structure_potential, bias)
+    low, high = limits
+    best: Pair | None = None
+    for a, b in itertools.combinations(range(len(names)), 2):
+        base = np.asarray(model.K0, dtype=float) + sum(
+            w[p] * kp[p] for p in range(len(names)) if p not in (a, b)
+        )
+        try:
+            wa, wb, _ = degenerate_w(base, kp[a], kp[b], np.asarray(model.M, dtype=float))
+        except np.linalg.LinAlgError:
+            continue  # the pair's stiffnesses and the mass are linearly dependent
+        v = [_root(wp, bias[p], structure_potential, low, high) for wp, p in ((wa, a), (wb, b))]
+        if v[0] is None or v[1] is None:
+            continue
+        step = float(max(abs(v[0] - bias[a]), abs(v[1] - bias[b])))
+        if best is None or step < best.step_v:
+            best = Pair((names[a], names[b]), np.array(v, dtype=float), step)
+    return best
+
+
+def _root(
+    w: float, now: float, structure_potential: float, low: float, high: float
+) -> float | None:
+    """The bias ``v_gyro ± √w`` nearest ``now`` inside ``[low, high]``, or None."""
+    if not np.isfinite(w) or w < 0.0:
+        return None
+    roots = [structure_potential + s * float(np.sqrt(w)) for s in (-1.0, 1.0)]
+    inside = [r for r in roots if low <= r <= high]
+    return min(inside, key=lambda r: abs(r - now)) if inside else None

@@ -1,0 +1,122 @@
+"""Degenerate modes need two electrodes: a run given more tunes the pair nearest the goal.
+
+Truth: the cloverleaf's exact model (its three electrodes, linear in the squared potentials),
+whose degenerate bias for each pair is known in closed form
+(:func:`sysid_core.model.modal.degenerate_bias`); and a simulated random gyro of six electrodes,
+whose true split at the end of a run is read from the simulator.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from sysid_cloverleaf import CloverleafGyro
+from truths import degenerate_config
+
+from sysid_core import tune
+from sysid_core.device.simulation import GyroTruth
+from sysid_core.measure.pairing import least_voltage_pair
+from sysid_core.model.modal import degenerate_bias
+from sysid_core.plugin.registry import get_registry
+
+ALL = ["B1", "B2", "B3"]
+
+
+@pytest.fixture(scope="module")
+def truth() -> GyroTruth:
+    return CloverleafGyro(noise=0, feedthrough=0, extra_modes=False, dac_bits=0).truth
+
+
+def _exact(truth: GyroTruth):  # type: ignore[no-untyped-def]
+    from tuning.test_tuning import exact_model
+
+    return exact_model(truth, ALL)
+
+
+def _pair_steps(truth: GyroTruth, limits: tuple[float, float]) -> dict[tuple[int, int], float]:
+    """Each pair's exact degenerate bias from 0 V, by the closed form: its largest step."""
+    steps = {}
+    for a, b in itertools.combinations(range(3), 2):
+        v = degenerate_bias(truth.K0, truth.Kp, truth.M, truth.structure_potential, (a, b))
+        if np.all(np.isfinite(v)) and np.all((v >= limits[0]) & (v <= limits[1])):
+            steps[(a, b)] = float(np.max(np.abs(v)))
+    return steps
+
+
+def test_the_pair_chosen_is_the_nearest_exact_degenerate_bias(truth: GyroTruth) -> None:
+    steps = _pair_steps(truth, (-10.0, 10.0))
+    assert len(steps) >= 2  # a choice to make
+    best = min(steps, key=steps.__getitem__)
+    pair = least_voltage_pair(_exact(truth), np.zeros(3), (-10.0, 10.0), truth.structure_potential)
+    assert pair is not None
+    assert pair.electrodes == (ALL[best[0]], ALL[best[1]])
+    assert pair.step_v == pytest.approx(steps[best], rel=1e-9)
+    bias = np.zeros(3)
+    bias[list(best)] = pair.bias
+    f = truth.modal_frequencies_hz(bias)
+    assert f[1] - f[0] < 1e-6  # degenerate by the truth itself
+    assert "tuning" in pair.describe(ALL) and ALL[best[0]] in pair.describe(ALL)
+
+
+def test_limits_that_exclude_the_nearest_pair_choose_the_next_or_none(truth: GyroTruth) -> None:
+    """The cloverleaf: B2 and B3 reach degenerate modes at (4.351, -1.751) V, B1 and B2 at
+    (2.041, 4.388) V, B1 and B3 only 76 V away. Limits of ±4.37 V leave B2 and B3; limits of
+    (-1.7, 10) V leave B1 and B2; ±4 V leave none."""
+    model, vs = _exact(truth), truth.structure_potential
+    assert least_voltage_pair(model, np.zeros(3), (-4.37, 4.37), vs).electrodes == ("B2", "B3")
+    assert least_voltage_pair(model, np.zeros(3), (-1.7, 10.0), vs).electrodes == ("B1", "B2")
+    assert least_voltage_pair(model, np.zeros(3), (-4.0, 4.0), vs) is None
+
+
+def test_two_electrodes_leave_nothing_to_choose(truth: GyroTruth) -> None:
+    from tuning.test_tuning import exact_model
+
+    two = exact_model(truth, ["B1", "B2"])
+    assert least_voltage_pair(two, np.zeros(2), (-10.0, 10.0), truth.structure_potential) is None
+
+
+def _run(
+    tmp_path: Path, pair: bool, iterations: int = 6, resume: bool = False
+) -> tuple[Path, dict, object]:
+    seed = 588  # six electrodes (and a seventh not offered)
+    device = get_registry().device("random-gyro", seed=seed, noise=1e-3)
+    config = degenerate_config(device, {"seed": seed, "noise": 1e-3}, iterations=iterations)
+    config["tuning"]["electrodes"] = list(device.electrodes[:6])
+    config["tuning"]["pair"] = pair
+    config["tuning"]["acceptance_hz"] = 0.001
+    out = tmp_path / f"pair-{pair}"
+    tune(config, out, device=device, plots=False, resume=resume)
+    return out, json.loads((out / "summary.json").read_text()), device
+
+
+def test_without_pair_every_electrode_is_tuned(tmp_path: Path) -> None:
+    _, summary, _ = _run(tmp_path, False, iterations=1)
+    assert len(summary["tuned"]) == 6
+    assert len(summary["history"][0]["experiments"]) == 13  # two-sided: 2 n + 1
+
+
+def test_a_run_given_six_electrodes_tunes_a_pair_and_reaches_the_goal(tmp_path: Path) -> None:
+    out, summary, device = _run(tmp_path, True)
+    assert len(summary["tuned"]) == 2 and set(summary["tuned"]) < set(summary["electrodes"])
+    assert sorted(p.name for p in out.glob("iter01/exp-B*.nc")) == [
+        f"exp-{e}.nc"
+        for e in device.electrodes[:6]  # type: ignore[attr-defined]
+    ]
+    held = [k for k, e in enumerate(summary["electrodes"]) if e not in summary["tuned"]]
+    assert np.allclose(np.asarray(summary["bias"])[held], 0.0)  # the others stay where they were
+    f = device.true_modal_frequencies_hz(np.asarray(summary["bias"]))  # type: ignore[attr-defined]
+    assert summary["converged"] and f[1] - f[0] <= 2 * 0.001
+    # the pair's first design: the centre and each electrode of the pair up and down
+    first = summary["history"][0]["experiments"]
+    assert len(first) == 5
+    # --resume reads every sweep back, chooses the same pair and ends where the run ended
+    _, again, _ = _run(tmp_path, True, resume=True)
+    assert (again["tuned"], again["bias"], again["points"]) == (
+        summary["tuned"],
+        summary["bias"],
+        summary["points"],
+    )
