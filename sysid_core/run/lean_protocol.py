@@ -124,7 +124,7 @@ class LeanProtocol(Protocol):
     def _pair(self, bias: np.ndarray, folder: Path) -> None:
         """The centre of the first design, then the pair of electrodes to tune.
 
-        With ``[tuning] pair`` (the default), the degenerate criterion and more than two
+        With ``[tuning] pair = true``, the degenerate criterion and more than two
         electrodes: each stepped once (``exp-<electrode>.nc``), the linear law fitted, and the
         pair that reaches degenerate modes with the least voltage tuned from then on
         (:mod:`sysid_core.measure.pairing`); the other electrodes stay at ``bias``.
