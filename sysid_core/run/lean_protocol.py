@@ -104,7 +104,7 @@ class LeanProtocol(Protocol):
             ctx.say(f"iteration {it}: {why}; fitting the sweeps near the bias from now on")
         radius = LOCAL_RADIUS * ctx.step(it)
         if it == 1:  # the centre first (is the bench quiet?), then the electrodes to tune
-            self._pair(bias, folder)
+            self._centre_and_pair(bias, folder)
         law = ctx.config.model.stiffness
         if it == 1 or not self.known.meets_rank(bias, radius, law):
             design = ctx.design(bias, it, quiet=self.quiet and it == 1)
@@ -121,7 +121,7 @@ class LeanProtocol(Protocol):
             return self.known.union(), None
         return self.known.near(bias, radius), None
 
-    def _pair(self, bias: np.ndarray, folder: Path) -> None:
+    def _centre_and_pair(self, bias: np.ndarray, folder: Path) -> None:
         """The centre of the first design, then the pair of electrodes to tune.
 
         With ``[tuning] pair = true``, the degenerate criterion and more than two
