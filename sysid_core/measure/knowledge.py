@@ -77,6 +77,8 @@ class Knowledge:
         self.tuned = list(tuned)
         self.structure_potential = float(structure_potential)
         self.items: list[Measured] = []
+        #: Every sweep of the run, also those :meth:`retune` set aside.
+        self.every: list[Measured] = []
         #: Each sweep's applied bias on the tuned electrodes (what the rank condition reads).
         self.applied: list[np.ndarray] = []
         #: The epoch the sweeps added now belong to (the run's iteration): a fit with drift
@@ -95,20 +97,22 @@ class Knowledge:
             modes = guess if guess.usable() else None
         epochs = np.full(sweep.sizes["experiment"], self.epoch, dtype=int)
         self.items.append(Measured(sweep.assign_coords(epoch=("experiment", epochs)), modes))
+        self.every.append(self.items[-1])
         self.applied.append(np.asarray(sweep["bias"].sel(electrode=self.tuned).values, dtype=float))
 
     def retune(self, tuned: Sequence[str], bias: np.ndarray) -> None:
         """Tune ``tuned`` from now on, the other electrodes held at ``bias``.
 
         The sweeps that moved any other electrode away from ``bias`` are set aside: they stay
-        on file, and no fit of the tuned electrodes can use them.
+        on file, and no fit of the tuned electrodes can use them. Tuning every electrode again
+        takes back every sweep, in the order measured.
         """
-        names = [str(e) for e in self.items[0].data["electrode"].values] if self.items else []
+        names = [str(e) for e in self.every[0].data["electrode"].values] if self.every else []
         others = [k for k, e in enumerate(names) if e not in tuned]
         held = np.asarray(bias, dtype=float)[others]
         self.items = [
             m
-            for m in self.items
+            for m in self.every
             if np.allclose(np.asarray(m.bias, dtype=float)[others], held, rtol=0, atol=SAME_V)
         ]
         self.tuned = list(tuned)

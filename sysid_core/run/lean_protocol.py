@@ -127,7 +127,8 @@ class LeanProtocol(Protocol):
         With ``[tuning] pair = true``, the degenerate criterion and more than two
         electrodes: each stepped once (``exp-<electrode>.nc``), the linear law fitted, and the
         pair that reaches degenerate modes with the least voltage tuned from then on
-        (:mod:`sysid_core.measure.pairing`); the other electrodes stay at ``bias``.
+        (:mod:`sysid_core.measure.pairing`); the other electrodes stay at ``bias`` until a
+        model of the pair finds the goal out of reach (:meth:`learned`).
         """
         ctx = self.ctx
         if not self.known.has(bias):
@@ -149,6 +150,7 @@ class LeanProtocol(Protocol):
             )
             return
         ctx.say(f"iteration 1: {pair.describe(tuned)}")
+        self.offered = tuned
         ctx.retune(list(pair.electrodes))
         self.known.retune(pair.electrodes, bias)
 
@@ -232,9 +234,23 @@ class LeanProtocol(Protocol):
 
         return band
 
-    def learned(self, moved: bool, bias: np.ndarray, ver: Verification) -> None:
-        """Keep whether the run moved, and the verified bias and modes if verified."""
+    def learned(
+        self, moved: bool, bias: np.ndarray, ver: Verification, unreachable: bool = False
+    ) -> None:
+        """Keep whether the run moved, and the verified bias and modes if verified.
+
+        A pair whose model found the goal ``unreachable`` gives way to every electrode: the
+        next local design steps them all, and every sweep set aside counts again.
+        """
         self.moved = moved
+        if unreachable and self.offered is not None:
+            every, pair, self.offered = self.offered, self.ctx.space.tuned, None
+            self.ctx.say(
+                f"the pair {' and '.join(pair)} cannot meet the goal by its model; tuning every "
+                f"electrode ({', '.join(every)}) from now on"
+            )
+            self.ctx.retune(every)
+            self.known.retune(every, bias)
         if ver.verified and ver.frequencies_hz is not None:
             self.last_verified = (bias.copy(), np.asarray(ver.frequencies_hz, dtype=float))
             self.splits.append(float(ver.split_hz or 0.0))

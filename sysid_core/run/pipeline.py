@@ -2,12 +2,12 @@
 
 1. Measure and fit (:mod:`sysid_core.run.protocols`): the experiments of eq. (18) around the
    current bias, checked against the rank condition (6), measured where the protocol says
-   (the paper's full sweeps, or the lean protocol's points where the modes are; its pair of
-   electrodes, :mod:`sysid_core.measure.pairing`), and one bias-dependent model fitted to them.
+   (the paper's full sweeps, or the lean protocol's points where the modes are, on a pair of the
+   electrodes or all, :mod:`sysid_core.measure.pairing`), and one bias-dependent model fitted.
 2. Answer (:mod:`sysid_core.verdict.answer`): the criterion's bias, the DAC code the model predicts
    best, and its confidence region, where the run's measurements support it
-   (:mod:`sysid_core.verdict.trust`). A goal unreachable inside the limits ends the run
-   (:class:`~sysid_core.errors.UnreachableTuningError`) where a model identified there says so.
+   (:mod:`sysid_core.verdict.trust`). A goal unreachable inside the limits ends the run where a
+   model identified there says so (:class:`~sysid_core.errors.UnreachableTuningError`).
 3. Verify at the new bias (:mod:`sysid_core.measure.verification`): a split counts as measured only
    when the evidence says both modes are in a window that resolves them.
 4. Report (:mod:`sysid_core.run.summary`): the iteration's record, ``summary.json`` and plots.
@@ -195,7 +195,6 @@ class TuningRun:
         """Measurements made (or read, on resume) so far."""
         return self.bench.measurements
 
-    # ------------------------------------------------------------------ the loop
     def run(self) -> RunSummary:
         """Run (or resume) the loop; returns the summary (also written to ``summary.json``).
 
@@ -275,7 +274,7 @@ class TuningRun:
                 self.say(f"iteration {it}: {stop}")
             if converged or stop is not None:
                 break
-            self.protocol.learned(step.moved, bias, ver)
+            self.protocol.learned(step.moved, bias, ver, "unreachable" in step.result.info)
             # the next identification: around the modes if they were found, else the band
             found = ver.frequencies_hz is not None
             center, split = (ver.frequency_hz, float(ver.split_hz or 0.0)) if found else (None, 0.0)
@@ -356,6 +355,7 @@ class TuningRun:
             least_measured=seen[0],
             latest_measured=seen[1],
             local_fit=self.protocol.local,
+            reoffer=self.protocol.offered is not None,
         )
         result = step.result
         write_json(folder / "tuning.json", result.as_dict())

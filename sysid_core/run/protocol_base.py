@@ -42,6 +42,8 @@ class Protocol(ABC):
 
     #: The latest iteration fitted only the sweeps near its bias (answers hold only near them).
     local = False
+    #: Every configured electrode while the run tunes a pair of them (else None).
+    offered: list[str] | None = None
 
     def __init__(self, ctx: RunContext) -> None:
         self.ctx = ctx
@@ -65,10 +67,13 @@ class Protocol(ABC):
         """Every sweep so far, if iteration ``it`` fitted fewer (None: it fitted them all)."""
         return None
 
-    def learned(self, moved: bool, bias: np.ndarray, ver: Verification) -> None:
+    def learned(
+        self, moved: bool, bias: np.ndarray, ver: Verification, unreachable: bool = False
+    ) -> None:
         """Keep what the iteration ended with (the lean protocol does; the full one, nothing).
 
-        A move to the best reachable bias, the bias verified, its verification.
+        A move (to the best reachable bias, or back), the bias verified, its verification, and
+        whether the answer's model found the goal out of reach.
         """
         return None
 

@@ -89,6 +89,7 @@ def answer(
     near_acceptances: float = NEAR_ACCEPTANCES,
     local_step: float | None = None,
     local_fit: bool = False,
+    reoffer: bool = False,
 ) -> Answer:
     """The answer of iteration ``it`` (see the module).
 
@@ -102,6 +103,8 @@ def answer(
     measured split's bias, or takes the linearised step from the latest verified bias
     (``latest_measured``), no longer than the local design's step (``local_step``, else
     ``bias_step``); from a model of the sweeps near the bias only (``local_fit``), at any split.
+    A run that tunes a pair of its electrodes and can offer the others again (``reoffer``)
+    concludes no "unreachable" (:func:`best_effort`).
     """
     try:
         result, local = solve_criterion(criterion, model, space)
@@ -129,6 +132,7 @@ def answer(
                 least_measured,
                 acceptance_hz,
                 local_fit or it == 1,
+                reoffer,
             )
             local = model
     step = _applied(result, local, model, space, device)
@@ -241,6 +245,7 @@ def best_effort(
     least_measured: tuple[float, np.ndarray] | None = None,
     acceptance_hz: float | None = None,
     identified_here: bool = True,
+    reoffer: bool = False,
 ) -> TuningResult:
     """Continue from the best reachable bias, or re-raise ``exc`` if that cannot help.
 
@@ -272,6 +277,10 @@ def best_effort(
     Nor is that of a model not ``identified_here`` (a lean run's fit of every sweep: its law is
     the first design's, extrapolated to windows; its region states the noise, not that): the
     run moves to the best reachable bias and measures the local design there.
+
+    Nor that of a model of a pair of the electrodes while others can be offered again
+    (``reoffer``, :mod:`sysid_core.measure.pairing`): the run moves to the pair's best reachable
+    bias and tunes every electrode from there.
     """
     refuted = (
         criterion_name == "degenerate"
@@ -305,13 +314,15 @@ def best_effort(
         if identified_here and not (far or unmodelled or last_iteration):
             there = _result_at(np.asarray(best, dtype=float), space, model, criterion_name)
             unsure = unsure_unreachable(model, there, space, acceptance_hz)
-    doubt = far or unmodelled or unsure is not None or not identified_here
+    doubt = far or unmodelled or unsure is not None or not identified_here or reoffer
     if best is None or not doubt or (last_iteration and not unmodelled):
         raise exc
     # at the last iteration the run stays where it is: a far bias this model only extrapolates
     # to would end the run there (measured: 46 Hz off on a gyro the run had brought to 5 Hz)
     bias = check_bias(device.device, space.start_bias if last_iteration else best)
-    if unmodelled:
+    if reoffer:
+        why = "a model of a pair of the electrodes; the others are offered again"
+    elif unmodelled:
         why = f"its data span {span / 60:.3g} min of a clock and no drift was modelled"
     elif unsure is not None:
         why = f"its own 95 % region there holds a split of {unsure * 1e3:.3g} mHz"

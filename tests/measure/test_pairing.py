@@ -8,6 +8,7 @@ whose true split at the end of a run is read from the simulator.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import json
 from pathlib import Path
@@ -120,3 +121,34 @@ def test_a_run_given_six_electrodes_tunes_a_pair_and_reaches_the_goal(tmp_path: 
         summary["bias"],
         summary["points"],
     )
+
+
+def test_a_pair_that_cannot_meet_the_goal_gives_way_to_every_electrode(tmp_path: Path) -> None:
+    """The cloverleaf with a bias law that softens B3 (``beta_3 = -0.03 / V^2``): by the first
+    sweeps' law (±1 V) B2 and B3 meet the goal nearest, but the truth gives that pair no
+    degenerate bias inside ±10 V (its best split is 0.89 Hz), while all three electrodes have
+    one (the truth's own minimisation). The pair's model finds the goal out of reach, and the
+    run tunes every electrode from then on instead of ending with that error."""
+    device = CloverleafGyro(noise=1e-4, feedthrough=0, extra_modes=False, dac_bits=0)
+    device.truth = dataclasses.replace(device.truth, bias_law=np.array([0.0, 0.0, -0.03]))
+    config = {
+        "device": {"name": "cloverleaf"},
+        "model": {"structure": "act"},
+        "tuning": {
+            "criterion": "degenerate",
+            "electrodes": ALL,
+            "start_bias": [0.0] * 3,
+            "acceptance_hz": 0.001,
+            "max_iterations": 8,
+            "pair": True,
+        },
+    }
+    summary = tune(config, tmp_path / "run", device=device, plots=False)
+    first = json.loads((tmp_path / "run" / "iter01" / "tuning.json").read_text())
+    assert "electrodes B2, B3" in first["unreachable"]  # the pair's verdict, not concluded
+    assert summary.tuned == ALL
+    f = device.truth.modal_frequencies_hz(device.applied_bias(np.asarray(summary.bias)))
+    assert summary.converged and f[1] - f[0] <= 2 * 0.001
+    # a resume replays the same choice: the pair, then every electrode
+    again = tune(config, tmp_path / "run", device=device, plots=False, resume=True)
+    assert (again.tuned, again.bias, again.points) == (summary.tuned, summary.bias, summary.points)
