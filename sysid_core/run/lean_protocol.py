@@ -10,8 +10,9 @@ it measures only the experiments of the local design they lack
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -44,6 +45,7 @@ from sysid_core.model.fitted import FittedModel
 from sysid_core.run.context import RunContext
 from sysid_core.run.protocol_base import Found, Prefit, Protocol
 from sysid_core.tuning.criteria import TuningResult
+from sysid_core.verdict.dacfloor import beyond_reach
 
 __all__ = ["LeanProtocol"]
 
@@ -235,18 +237,26 @@ class LeanProtocol(Protocol):
         return band
 
     def learned(
-        self, moved: bool, bias: np.ndarray, ver: Verification, unreachable: bool = False
+        self,
+        moved: bool,
+        bias: np.ndarray,
+        ver: Verification,
+        info: Mapping[str, Any] | None = None,
     ) -> None:
         """Keep whether the run moved, and the verified bias and modes if verified.
 
-        A pair whose model found the goal ``unreachable`` gives way to every electrode: the
-        next local design steps them all, and every sweep set aside counts again.
+        A pair whose answer (``info``) is beyond its reach (:func:`~sysid_core.verdict.dacfloor.
+        beyond_reach`: out of reach inside the limits, or the DAC's best code over the
+        acceptance) gives way to every electrode: the next local design steps them all, and
+        every sweep set aside counts again.
         """
         self.moved = moved
-        if unreachable and self.offered is not None:
+        acceptance = self.ctx.config.tuning.acceptance_hz
+        why = None if self.offered is None else beyond_reach(info or {}, acceptance)
+        if self.offered is not None and why is not None:
             every, pair, self.offered = self.offered, self.ctx.space.tuned, None
             self.ctx.say(
-                f"the pair {' and '.join(pair)} cannot meet the goal by its model; tuning every "
+                f"the pair {' and '.join(pair)} cannot meet the goal: {why}; tuning every "
                 f"electrode ({', '.join(every)}) from now on"
             )
             self.ctx.retune(every)

@@ -274,7 +274,7 @@ class TuningRun:
                 self.say(f"iteration {it}: {stop}")
             if converged or stop is not None:
                 break
-            self.protocol.learned(step.moved, bias, ver, "unreachable" in step.result.info)
+            self.protocol.learned(step.moved, bias, ver, step.result.info)
             # the next identification: around the modes if they were found, else the band
             found = ver.frequencies_hz is not None
             center, split = (ver.frequency_hz, float(ver.split_hz or 0.0)) if found else (None, 0.0)

@@ -9,7 +9,9 @@ a narrow window whose noise hides the split. The protocols themselves are in
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -68,12 +70,16 @@ class Protocol(ABC):
         return None
 
     def learned(
-        self, moved: bool, bias: np.ndarray, ver: Verification, unreachable: bool = False
+        self,
+        moved: bool,
+        bias: np.ndarray,
+        ver: Verification,
+        info: Mapping[str, Any] | None = None,
     ) -> None:
         """Keep what the iteration ended with (the lean protocol does; the full one, nothing).
 
         A move (to the best reachable bias, or back), the bias verified, its verification, and
-        whether the answer's model found the goal out of reach.
+        the answer's ``TuningResult.info``.
         """
         return None
 

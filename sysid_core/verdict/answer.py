@@ -279,8 +279,8 @@ def best_effort(
     run moves to the best reachable bias and measures the local design there.
 
     Nor that of a model of a pair of the electrodes while others can be offered again
-    (``reoffer``, :mod:`sysid_core.measure.pairing`): the run moves to the pair's best reachable
-    bias and tunes every electrode from there.
+    (``reoffer``, :mod:`sysid_core.measure.pairing`): the run stays at its bias, where it tunes
+    every electrode from the next iteration on.
     """
     refuted = (
         criterion_name == "degenerate"
@@ -318,8 +318,10 @@ def best_effort(
     if best is None or not doubt or (last_iteration and not unmodelled):
         raise exc
     # at the last iteration the run stays where it is: a far bias this model only extrapolates
-    # to would end the run there (measured: 46 Hz off on a gyro the run had brought to 5 Hz)
-    bias = check_bias(device.device, space.start_bias if last_iteration else best)
+    # to would end the run there (measured: 46 Hz off on a gyro the run had brought to 5 Hz);
+    # so does one that offers every electrode again: a pair's best reachable bias may lie at a
+    # limit, far from where all of them meet the goal and from the sweeps already measured
+    bias = check_bias(device.device, space.start_bias if last_iteration or reoffer else best)
     if reoffer:
         why = "a model of a pair of the electrodes; the others are offered again"
     elif unmodelled:
@@ -334,6 +336,8 @@ def best_effort(
         "not concluded: the run stays at its bias and ends unconverged (more iterations, or "
         "a [model] drift, decide)"
         if last_iteration
+        else "staying at this bias to tune every electrode"
+        if reoffer
         else "continuing from that bias"
     )
     say(f"iteration {it}: {exc} -- {why}; {then}")

@@ -19,7 +19,14 @@ from sysid_core.drift.tracker import Tracker
 from sysid_core.measure.verification import Verification
 from sysid_core.tuning.confidence import split_interval
 
-__all__ = ["DAC_FLOOR_SHARE", "budget_drift_hz", "dac_floor", "dac_reached", "least_split"]
+__all__ = [
+    "DAC_FLOOR_SHARE",
+    "beyond_reach",
+    "budget_drift_hz",
+    "dac_floor",
+    "dac_reached",
+    "least_split",
+]
 
 #: The DAC's floor is said when its best code near an answer is predicted to leave at least this
 #: share of the acceptance.
@@ -40,6 +47,26 @@ def dac_floor(info: Mapping[str, Any], acceptance_hz: float | None) -> float | N
         return None
     split = float(code["predicted_split_hz_chosen"])
     return split if split >= DAC_FLOOR_SHARE * acceptance_hz else None
+
+
+def beyond_reach(info: Mapping[str, Any], acceptance_hz: float | None) -> str | None:
+    """Why the answer's model finds the goal beyond what its electrodes can do, or None.
+
+    ``info``: the answer's ``TuningResult.info``. Out of reach inside the limits
+    (``"unreachable"``), or the DAC's best code near the answer predicted over
+    ``acceptance_hz`` (:func:`dac_floor`): two electrodes offer the DAC's codes on a lattice of
+    two dimensions, more electrodes a finer one. A run that tunes a pair of its electrodes
+    tunes every one from then on (:mod:`sysid_core.measure.pairing`).
+    """
+    if "unreachable" in info:
+        return "its model finds the goal out of reach inside the limits"
+    floor = dac_floor(info, acceptance_hz)
+    if floor is None or acceptance_hz is None or floor <= acceptance_hz:
+        return None
+    return (
+        f"its DAC's best code near the answer is predicted to leave {floor * 1e3:.3g} mHz, over "
+        f"the acceptance of {acceptance_hz * 1e3:.3g} mHz"
+    )
 
 
 def least_split(

@@ -18,7 +18,7 @@ from truths import cloverleaf_config, write_toml
 from sysid_core.cli import main
 from sysid_core.run.config import parse_config
 from sysid_core.run.pipeline import TuningRun
-from sysid_core.verdict.dacfloor import DAC_FLOOR_SHARE, dac_floor, dac_reached
+from sysid_core.verdict.dacfloor import DAC_FLOOR_SHARE, beyond_reach, dac_floor, dac_reached
 
 ACCEPTANCE = 0.001
 
@@ -66,6 +66,16 @@ def test_the_dac_floor_needs_a_code_a_reachable_goal_and_a_sizeable_share() -> N
     assert dac_floor(code, None) is None
     assert dac_floor({}, 0.001) is None
     assert dac_floor({**code, "unreachable": "out of the limits"}, 0.001) is None
+
+
+def test_a_goal_is_beyond_reach_out_of_the_limits_or_under_the_dacs_best_code() -> None:
+    """What makes a run tuning a pair of its electrodes tune every one (pairing module)."""
+    assert "out of reach" in str(beyond_reach({"unreachable": "best 3 mHz"}, 0.001))
+    over = {"dac_code": {"predicted_split_hz_chosen": 0.0012}}
+    assert "1.2 mHz" in str(beyond_reach(over, 0.001))
+    assert beyond_reach(over, 0.0013) is None  # the code leaves less than the acceptance
+    assert beyond_reach(over, None) is None
+    assert beyond_reach({}, 0.001) is None
 
 
 def test_the_command_line_points_at_the_dac_not_at_more_iterations(
