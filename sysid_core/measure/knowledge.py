@@ -129,6 +129,11 @@ class Knowledge:
         """Every sweep as one data set over the tuned electrodes."""
         return concat_experiments([m.data for m in self.items]).sel(electrode=self.tuned)
 
+    @staticmethod
+    def same(a: np.ndarray, b: np.ndarray) -> bool:
+        """``a`` and ``b`` are one bias (within :data:`SAME_V`)."""
+        return bool(np.allclose(a, b, rtol=0, atol=SAME_V))
+
     def has(self, bias: np.ndarray) -> bool:
         """Some sweep was measured at ``bias`` (within :data:`SAME_V`)."""
         return any(np.allclose(m.bias, bias, rtol=0, atol=SAME_V) for m in self.items)

@@ -49,6 +49,13 @@ from sysid_core.verdict.dacfloor import beyond_reach
 
 __all__ = ["LeanProtocol"]
 
+#: Why a run measures the local design where it is now.
+MOVED = (
+    "the last answer moved the run (to the best reachable bias, or back to the least measured "
+    "split's)"
+)
+REGROWN = "every electrode is tuned from now on, where the first design was"
+
 
 class LeanProtocol(Protocol):
     """Points where the modes are, every sweep kept (see the module).
@@ -78,6 +85,10 @@ class LeanProtocol(Protocol):
         #: Whether the probe showed both modes: a band at its step shows this gyro's modes on
         #: this bench, and is the first band a later sweep that misses them falls back to.
         self.probe_stood = False
+        #: With ``[tuning] pair``: where the pair was chosen, and where every electrode was
+        #: offered again if that is where the run still is (its design is the first one's).
+        self.paired_at: np.ndarray | None = None
+        self.regrown_at: np.ndarray | None = None
 
     def data(
         self, it: int, bias: np.ndarray, folder: Path, center_hz: float | None, split_hz: float
@@ -91,11 +102,12 @@ class LeanProtocol(Protocol):
         self.known.begin(it)
         if self.previous is not None:
             return self._from_previous(it, bias, folder)
+        # every electrode offered again where the first design was: that design, over them all
+        again = self.regrown_at is not None and self.known.same(bias, self.regrown_at)
         if it > 1 and self.moved:
             self.local = True
             ctx.say(
-                f"iteration {it}: the last answer moved the run (to the best reachable bias, or "
-                "back to the least measured split's); measuring the local design there"
+                f"iteration {it}: {REGROWN if again else MOVED}; measuring the local design there"
             )
         elif it > 1 and not self.local:
             why, prefit = self._design_now(it)
@@ -104,12 +116,13 @@ class LeanProtocol(Protocol):
                 return (prefit[0], prefit) if prefit is not None else (self.known.union(), None)
             self.local = True
             ctx.say(f"iteration {it}: {why}; fitting the sweeps near the bias from now on")
-        radius = LOCAL_RADIUS * ctx.step(it)
+        scale = 1 if again else it
+        radius = LOCAL_RADIUS * ctx.step(scale)
         if it == 1:  # the centre first (is the bench quiet?), then the electrodes to tune
             self._centre_and_pair(bias, folder)
         law = ctx.config.model.stiffness
         if it == 1 or not self.known.meets_rank(bias, radius, law):
-            design = ctx.design(bias, it, quiet=self.quiet and it == 1)
+            design = ctx.design(bias, scale, quiet=self.quiet and scale == 1)
             todo: Sequence[int] = range(len(design))  # the first design whole; later, what lacks
             if it > 1:
                 todo = self.known.completing(bias, radius, law, design, ctx.space.index)
@@ -152,7 +165,7 @@ class LeanProtocol(Protocol):
             )
             return
         ctx.say(f"iteration 1: {pair.describe(tuned)}")
-        self.offered = tuned
+        self.offered, self.paired_at = tuned, bias.copy()
         ctx.retune(list(pair.electrodes))
         self.known.retune(pair.electrodes, bias)
 
@@ -261,6 +274,7 @@ class LeanProtocol(Protocol):
             )
             self.ctx.retune(every)
             self.known.retune(every, bias)
+            self.regrown_at = self.paired_at
         if ver.verified and ver.frequencies_hz is not None:
             self.last_verified = (bias.copy(), np.asarray(ver.frequencies_hz, dtype=float))
             self.splits.append(float(ver.split_hz or 0.0))
