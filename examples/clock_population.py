@@ -14,7 +14,8 @@ Degenerate modes with B1 and B2, acceptance 1 mHz, up to 4 iterations (``--itera
 ``--from-model``, each run starts from the last model of a previous run on the same gyro (from
 0 V, other noise and drift; its own time is not counted). ``--model`` and ``--experiment`` add
 a ``[model]`` or ``[experiment]`` table given as JSON (``--model '{"stiffness": "linear"}'``);
-``--electrodes 3`` tunes with B1, B2 and B3 (a gyro with two electrodes uses both).
+``--electrodes 3`` tunes with B1, B2 and B3 (a gyro with two electrodes uses both); of more than
+two, the run tunes the pair it chooses unless ``--every-electrode`` (``[tuning] pair = false``).
 ``--draw K`` (K ≥ 1) repeats the population with another draw of the noise and the drift: the
 same gyros and starts (the random gyro's ``noise_seed = K``; the cloverleaf's seed, which
 draws only its noise, and the bench's seed plus ``100000 K``).
@@ -85,10 +86,12 @@ def _config(
     model: dict,
     electrodes: int = 2,
     iterations: int = 4,
+    pair: bool = True,
 ) -> dict:
     tuning = {
         "criterion": "degenerate",
         "electrodes": list(device.electrodes[: max(electrodes, 2)]),
+        "pair": pair,
         "start_bias": start,
         "acceptance_hz": ACCEPTANCE,
         "max_iterations": iterations,
@@ -128,6 +131,7 @@ class Population:
     electrodes: int = 2
     iterations: int = 4
     verbose: bool = False
+    pair: bool = True
 
     def config(self, device: Any, options: dict, start: list[float]) -> dict:
         """The run's configuration for ``device`` from ``start``."""
@@ -140,6 +144,7 @@ class Population:
             self.model,
             self.electrodes,
             self.iterations,
+            self.pair,
         )
 
 
@@ -279,6 +284,11 @@ def main() -> None:
     )
     parser.add_argument("--iterations", type=int, default=4, help="max_iterations (4)")
     parser.add_argument(
+        "--every-electrode",
+        action="store_true",
+        help="tune every electrode given from the start ([tuning] pair = false)",
+    )
+    parser.add_argument(
         "--verbose", action="store_true", help="every run's progress lines on stderr"
     )
     parser.add_argument("--label", default=None)
@@ -323,6 +333,7 @@ def main() -> None:
         args.electrodes,
         args.iterations,
         args.verbose,
+        not args.every_electrode,
     )
     records = []
     with (args.out / "runs.jsonl").open("w") as log:

@@ -12,7 +12,8 @@ true split at the end of the run, which the run never sees. One JSON line per gy
 ``<out>/runs.jsonl``, then the table row. ``--experiment '{"locate_points": 21}'`` adds
 ``[experiment]`` keys to every run; ``--noise 1e-4`` sets the device's noise (80 dB) and
 ``--dac-bits 20`` its bias DAC (16 bits over ±10 V by default); ``--electrodes 3`` tunes with
-B1, B2 and B3 (a gyro with two electrodes uses both). ``--draw K`` (K ≥ 1) tunes the
+B1, B2 and B3 (a gyro with two electrodes uses both; of more than two, the pair the run chooses
+unless ``--every-electrode``). ``--draw K`` (K ≥ 1) tunes the
 same gyros with another draw of the measurement noise and of the bench's drifts (the device's
 ``noise_seed = K``, the bench's seed ``seed + 100000 K``): two draws of the same code differ by
 what a comparison of two codes must beat (docs/studies/drift-lab.md).
@@ -106,6 +107,7 @@ def one(
     electrodes: int = 2,
     start_min: float = 0.0,
     reach: float | None = None,
+    pair: bool = True,
 ) -> dict:
     """Tune gyro ``seed``; its record (true split at the end, claim, points, bench time)."""
     device, options = make_device(seed, bench, tones, noise, dac_bits, draw, start_min, reach)
@@ -115,6 +117,7 @@ def one(
         "tuning": {
             "criterion": "degenerate",
             "electrodes": list(device.electrodes[: max(electrodes, 2)]),
+            "pair": pair,
             "start_bias": [0.0] * len(device.electrodes),
             "acceptance_hz": ACCEPTANCE,
             # 0: the defaults, the bench-time budget ends a long run
@@ -221,6 +224,11 @@ def main() -> None:
         default=None,
         help="how far into its ±10 V limits each gyro's degenerate bias may lie (0.6; up to 1)",
     )
+    parser.add_argument(
+        "--every-electrode",
+        action="store_true",
+        help="tune every electrode given from the start ([tuning] pair = false)",
+    )
     parser.add_argument("--out", type=Path, default=Path("runs/drift-population"))
     args = parser.parse_args()
     if args.draw < 0:
@@ -252,6 +260,7 @@ def main() -> None:
                     args.electrodes,
                     args.start_min,
                     args.reach,
+                    not args.every_electrode,
                 )
             )
             log.write(json.dumps(records[-1]) + "\n")

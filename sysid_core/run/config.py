@@ -130,9 +130,9 @@ class TuningConfig(_Strict):
     estimated bench time): no measurement starts that would end past it; unset, it is the
     larger of an hour and 1200 dwells of the gyro (:mod:`sysid_core.clock.budget`).
     ``max_iterations`` only caps the iterations (default 300); no verdict depends on it.
-    ``pair`` (off by default): for degenerate modes with more than two ``electrodes``, a lean run
-    tunes the pair of them that reaches the goal with the least voltage
-    (:mod:`sysid_core.measure.pairing`).
+    ``pair`` (on by default): for degenerate modes with more than two ``electrodes``, a lean run
+    tunes the pair of them that reaches the goal with the least voltage, and every electrode
+    once that pair's answer is beyond its reach (:mod:`sysid_core.measure.pairing`).
     """
 
     criterion: str = "degenerate"
@@ -143,7 +143,7 @@ class TuningConfig(_Strict):
     aim: float | None = Field(None, gt=0, le=1)
     target_hz: float | None = Field(None, gt=0)
     electrodes: list[str] | None = None
-    pair: bool = False
+    pair: bool = True
     tolerance_hz: float | None = Field(None, gt=0)
     options: dict[str, Any] = Field(default_factory=dict)
 

@@ -258,10 +258,10 @@ class LeanProtocol(Protocol):
     ) -> None:
         """Keep whether the run moved, and the verified bias and modes if verified.
 
-        A pair whose answer (``info``) is beyond its reach (:func:`~sysid_core.verdict.dacfloor.
-        beyond_reach`: out of reach inside the limits, or the DAC's best code over the
-        acceptance) gives way to every electrode: the next local design steps them all, and
-        every sweep set aside counts again.
+        A pair whose answer (``info``) is beyond its reach (out of reach inside the limits, or
+        the DAC's best code over the acceptance:
+        :func:`~sysid_core.verdict.dacfloor.beyond_reach`) gives way to every electrode: the
+        next local design steps them all, and every sweep set aside counts again.
         """
         self.moved = moved
         acceptance = self.ctx.config.tuning.acceptance_hz

@@ -42,6 +42,7 @@ def test_iterations_cap_every_run_of_the_population(
     assert record["iterations"] == 1
     config = json.loads((out / "run205" / "config.json").read_text())["config"]
     assert config["tuning"]["max_iterations"] == 1
+    assert config["tuning"]["pair"] is True  # the default: the run may choose a pair
     printed = capsys.readouterr()
     assert "| random, 8 tone(s) |" in printed.out
     # where the clock went, in the gyro's own dwells: the purposes add up to the counted clock
@@ -52,6 +53,19 @@ def test_iterations_cap_every_run_of_the_population(
     assert 0 < purposes <= record["clock_s"]
     assert "dwells (bench clock / dwell_s), medians:" in printed.out
     assert "iteration 1:" not in printed.err  # the runs' own lines only with --verbose
+
+
+def test_every_electrode_turns_the_pair_off_in_every_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    script = _script(monkeypatch)
+    out = tmp_path / "pop"
+    argv = ["clock_population.py", "--gyro", "random", "--tones", "8", "--seeds", "205"]
+    flags = ["--iterations", "1", "--electrodes", "3", "--every-electrode", "--out", str(out)]
+    monkeypatch.setattr(sys, "argv", [*argv, *flags])
+    script.main()
+    config = json.loads((out / "run205" / "config.json").read_text())["config"]
+    assert config["tuning"]["pair"] is False
 
 
 def test_verbose_prints_every_run_s_progress(
