@@ -53,19 +53,20 @@ def beyond_reach(info: Mapping[str, Any], acceptance_hz: float | None) -> str | 
     """Why the answer's model finds the goal beyond what its electrodes can do, or None.
 
     ``info``: the answer's ``TuningResult.info``. Out of reach inside the limits
-    (``"unreachable"``), or the DAC's best code near the answer predicted over
-    ``acceptance_hz`` (:func:`dac_floor`): two electrodes offer the DAC's codes on a lattice of
-    two dimensions, more electrodes a finer one. A run that tunes a pair of its electrodes
-    tunes every one from then on (:mod:`sysid_core.measure.pairing`).
+    (``"unreachable"``), or the DAC limits the answer (:func:`dac_floor`: its best code near
+    the answer is predicted to leave at least :data:`DAC_FLOOR_SHARE` of ``acceptance_hz``,
+    which leaves the verification's noise too little room): two electrodes offer the DAC's
+    codes on a lattice of two dimensions, more electrodes a finer one. A run that tunes a pair
+    of its electrodes tunes every one from then on (:mod:`sysid_core.measure.pairing`).
     """
     if "unreachable" in info:
         return "its model finds the goal out of reach inside the limits"
     floor = dac_floor(info, acceptance_hz)
-    if floor is None or acceptance_hz is None or floor <= acceptance_hz:
+    if floor is None or acceptance_hz is None:
         return None
     return (
-        f"its DAC's best code near the answer is predicted to leave {floor * 1e3:.3g} mHz, over "
-        f"the acceptance of {acceptance_hz * 1e3:.3g} mHz"
+        f"its DAC's best code near the answer is predicted to leave {floor * 1e3:.3g} mHz of the "
+        f"acceptance of {acceptance_hz * 1e3:.3g} mHz"
     )
 
 
