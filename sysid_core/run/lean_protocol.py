@@ -142,8 +142,8 @@ class LeanProtocol(Protocol):
         With ``[tuning] pair = true``, the degenerate criterion and more than two
         electrodes: each stepped once (``exp-<electrode>.nc``), the linear law fitted, and the
         pair that reaches degenerate modes with the least voltage tuned from then on
-        (:mod:`sysid_core.measure.pairing`); the other electrodes stay at ``bias`` until a
-        model of the pair finds the goal out of reach (:meth:`learned`).
+        (:mod:`sysid_core.measure.pairing`); the other electrodes stay at ``bias`` until the
+        pair's answer is beyond its reach (:meth:`learned`).
         """
         ctx = self.ctx
         if not self.known.has(bias):
