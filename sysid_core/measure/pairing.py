@@ -20,7 +20,7 @@ electrodes stay at their bias. No pair inside the limits: every electrode stays 
 The first sweeps' law can be wrong about a pair far from where it was measured, and two
 electrodes offer the DAC's codes on a coarser lattice than more do. So a pair whose answer is
 beyond its reach (its model finds the goal out of reach inside the limits, or the DAC's best
-code near the answer leaves half the acceptance or more:
+code near the answer leaves more than the acceptance:
 :func:`~sysid_core.verdict.dacfloor.beyond_reach`) gives way to every electrode: the run stays
 at its bias, measures the local design of all of them there, and the sweeps that stepped the
 others count again (:meth:`~sysid_core.run.lean_protocol.LeanProtocol.learned`).

@@ -259,7 +259,7 @@ class LeanProtocol(Protocol):
         """Keep whether the run moved, and the verified bias and modes if verified.
 
         A pair whose answer (``info``) is beyond its reach (out of reach inside the limits, or
-        the DAC's best code leaving half the acceptance or more:
+        the DAC's best code leaving more than the acceptance:
         :func:`~sysid_core.verdict.dacfloor.beyond_reach`) gives way to every electrode: the
         next local design steps them all, and every sweep set aside counts again.
         """

@@ -71,9 +71,9 @@ def test_the_dac_floor_needs_a_code_a_reachable_goal_and_a_sizeable_share() -> N
 def test_a_goal_is_beyond_reach_out_of_the_limits_or_under_the_dacs_best_code() -> None:
     """What makes a run tuning a pair of its electrodes tune every one (pairing module)."""
     assert "out of reach" in str(beyond_reach({"unreachable": "best 3 mHz"}, 0.001))
-    over = {"dac_code": {"predicted_split_hz_chosen": 0.0006}}
-    assert "0.6 mHz" in str(beyond_reach(over, 0.001))  # a sizeable share of the acceptance
-    assert beyond_reach(over, 0.0006 / DAC_FLOOR_SHARE * 1.01) is None  # less than that
+    over = {"dac_code": {"predicted_split_hz_chosen": 0.0012}}
+    assert "1.2 mHz" in str(beyond_reach(over, 0.001))
+    assert beyond_reach(over, 0.0013) is None  # a sizeable share, but under the acceptance
     assert beyond_reach(over, None) is None
     assert beyond_reach({}, 0.001) is None
 
