@@ -111,9 +111,7 @@ class Knowledge:
         others = [k for k, e in enumerate(names) if e not in tuned]
         held = np.asarray(bias, dtype=float)[others]
         self.items = [
-            m
-            for m in self.every
-            if np.allclose(np.asarray(m.bias, dtype=float)[others], held, rtol=0, atol=SAME_V)
+            m for m in self.every if self.same(np.asarray(m.bias, dtype=float)[others], held)
         ]
         self.tuned = list(tuned)
         self.applied = [
@@ -136,7 +134,7 @@ class Knowledge:
 
     def has(self, bias: np.ndarray) -> bool:
         """Some sweep was measured at ``bias`` (within :data:`SAME_V`)."""
-        return any(np.allclose(m.bias, bias, rtol=0, atol=SAME_V) for m in self.items)
+        return any(self.same(m.bias, bias) for m in self.items)
 
     def _near(self, bias: np.ndarray, radius: float) -> list[Measured]:
         return [m for m in self.items if self._within(m, bias, radius)]
@@ -269,7 +267,7 @@ class Knowledge:
         ref = self.nearest(bias)
         if ref is None or ref.modes is None:
             return None, False
-        if np.allclose(ref.bias, bias, rtol=0, atol=SAME_V):
+        if self.same(ref.bias, bias):
             return ref.modes, False
         biases = np.array([m.bias for m in self.items])
         names = [str(e) for e in self.items[0].data["electrode"].values]
