@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from sysid_core.errors import ModelError
 from sysid_core.data.schema import measured_mask
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import mode_peaks, principal_part
@@ -340,15 +341,27 @@ def assess_window(sweep: xr.Dataset, model: FittedModel, band: bool = False) -> 
             )
         )
 
-    t, bc, cc = principal_part(
-        model.M,
-        model.C,
-        model.stiffness([]),
-        model.poly_at([]),
-        model.omega_center,
-        model.omega_half,
-        model.structure.side,
-    )
+    try:
+        t, bc, cc = principal_part(
+            model.M,
+            model.C,
+            model.stiffness([]),
+            model.poly_at([]),
+            model.omega_center,
+            model.omega_half,
+            model.structure.side,
+        )
+    except ModelError as exc:  # an overdamped fit: the window does not show two resonances
+        checks.append(Check("observed", False, f"the fit has no two resonances: {exc}"))
+        return WindowAssessment(
+            window_hz=(lo, hi),
+            step_hz=step,
+            band=band,
+            frequencies_hz=modes,
+            bandwidth_hz=bw,
+            checks=checks,
+            seen=False,
+        )
     poles, own = mode_peaks(t, bc, cc)
     ratio = own / max(peak, 1e-300)
     observed = bool(np.all(ratio >= MIN_CONTRIBUTION))

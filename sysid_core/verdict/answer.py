@@ -30,15 +30,19 @@ from sysid_core.tuning.criteria import (
     frequencies_from_w,
     solve_criterion,
 )
-from sysid_core.verdict.dac import best_code
+from sysid_core.verdict.dac import apply_best_code
 from sysid_core.verdict.dacfloor import dac_floor
-from sysid_core.verdict.trust import unsure_unreachable, untrusted_step, worse_than_measured
+from sysid_core.verdict.trust import (
+    outside_band,
+    unsure_unreachable,
+    untrusted_step,
+    worse_than_measured,
+)
 
 __all__ = [
     "REFUTES",
     "Answer",
     "answer",
-    "apply_best_code",
     "best_effort",
     "reach_with",
 ]
@@ -136,6 +140,22 @@ def answer(
             )
             local = model
     step = _applied(result, local, model, space, device)
+    limit = bias_step if local_step is None else local_step
+    band = getattr(device.device, "band_hz", None)
+    stray = outside_band(
+        model, step.result.frequencies_hz, space.start_bias, space.index, band, limit
+    )
+    if stray is not None:
+        bias = check_bias(device.device, stray)
+        say(
+            f"iteration {it}: the answer [{', '.join(f'{b:.4f}' for b in step.bias)}] V puts the "
+            f"modes at {' / '.join(f'{f:.6g}' for f in step.result.frequencies_hz)} Hz, outside "
+            f"the device's band {band[0]:.6g}-{band[1]:.6g} Hz: its law is carried where no "  # type: ignore[index]
+            "sweep measured it; taking the step the law asks at this bias and measuring there"
+        )
+        result = _result_at(bias, space, model, criterion.name)
+        result.info["outside_band_answer"] = [float(b) for b in step.bias]
+        return Answer(result, bias, True, model)
     back = worse_than_measured(step.result, criterion.name, least_measured, acceptance_hz)
     if back is not None:
         measured, where = back
@@ -162,7 +182,7 @@ def answer(
             latest_measured,
             space.index,
             acceptance_hz,
-            bias_step if local_step is None else local_step,
+            limit,
             near_acceptances,
             None if step.result.confidence is None else step.result.confidence.split_ci_hz[1],
             local_fit,
@@ -372,29 +392,3 @@ def _result_at(
         value=value,
         info=info,
     )
-
-
-def apply_best_code(
-    model: FittedModel, result: TuningResult, space: BiasSpace, device: GuardedDevice
-) -> None:
-    """Move ``result`` to the DAC code the model predicts best (:mod:`sysid_core.verdict.dac`)."""
-    code = best_code(model, result, space, device)
-    if code is None or np.array_equal(code, result.bias):
-        return
-    rounded = applied_bias(device.device, np.asarray(result.bias, dtype=float))
-    w = squared_potentials(space.structure_potential, code[space.index])
-    f = frequencies_from_w(model, w)
-    before = (
-        None
-        if rounded is None
-        else frequencies_from_w(
-            model, squared_potentials(space.structure_potential, rounded[space.index])
-        )
-    )
-    result.info["dac_code"] = {
-        "answer": [float(b) for b in result.bias],
-        "predicted_split_hz_rounded": None if before is None else float(before[1] - before[0]),
-        "predicted_split_hz_chosen": float(f[1] - f[0]),
-    }
-    result.bias, result.w = code, w
-    result.frequencies_hz, result.split_hz = f, float(f[1] - f[0])

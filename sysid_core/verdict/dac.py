@@ -21,9 +21,15 @@ from sysid_core.device.capabilities import read_capabilities
 from sysid_core.device.measuring import GuardedDevice, applied_bias
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import modal_frequencies_hz
-from sysid_core.tuning.criteria import BiasSpace, TuningResult
+from sysid_core.tuning.criteria import BiasSpace, TuningResult, frequencies_from_w
 
-__all__ = ["MAX_ELECTRODES", "best_code", "bias_resolution", "predicted_modes_hz"]
+__all__ = [
+    "MAX_ELECTRODES",
+    "apply_best_code",
+    "best_code",
+    "bias_resolution",
+    "predicted_modes_hz",
+]
 
 #: Above this many tuned electrodes (3**n candidates) the answer is applied as it is.
 MAX_ELECTRODES = 8
@@ -78,3 +84,29 @@ def best_code(
     tied = np.flatnonzero(score <= best + 1e-9 * max(abs(best), 1e-12) + 1e-15)
     choice = tied[np.argmin(np.asarray(distance)[tied])]
     return applied_codes[choice]
+
+
+def apply_best_code(
+    model: FittedModel, result: TuningResult, space: BiasSpace, device: GuardedDevice
+) -> None:
+    """Move ``result`` to the DAC code the model predicts best (:mod:`sysid_core.verdict.dac`)."""
+    code = best_code(model, result, space, device)
+    if code is None or np.array_equal(code, result.bias):
+        return
+    rounded = applied_bias(device.device, np.asarray(result.bias, dtype=float))
+    w = squared_potentials(space.structure_potential, code[space.index])
+    f = frequencies_from_w(model, w)
+    before = (
+        None
+        if rounded is None
+        else frequencies_from_w(
+            model, squared_potentials(space.structure_potential, rounded[space.index])
+        )
+    )
+    result.info["dac_code"] = {
+        "answer": [float(b) for b in result.bias],
+        "predicted_split_hz_rounded": None if before is None else float(before[1] - before[0]),
+        "predicted_split_hz_chosen": float(f[1] - f[0]),
+    }
+    result.bias, result.w = code, w
+    result.frequencies_hz, result.split_hz = f, float(f[1] - f[0])

@@ -1,24 +1,28 @@
 """Whether an answer may be applied: what the run's own measurements support.
 
 A model answers anywhere inside the limits, but its bias law is only measured near the biases
-the run swept. Two rules, for degenerate modes, keep the run from stepping where its data do not
-reach:
+the run swept. Three rules keep the run from stepping where its data do not reach:
 
-* :func:`worse_than_measured`: an answer whose own model predicts, at the DAC code that will be
-  applied, a split over :data:`WORSE` times the least one a verification of the run measured
-  and over :data:`WORSE_ACCEPTANCES` acceptances is an extrapolation the model itself does not
-  believe; the run goes back to that verification's bias and measures the local design.
-* :func:`untrusted_step`: once a verification measured a split near degenerate modes (under
-  :data:`~sysid_core.drift.tracker.NEAR_ACCEPTANCES` acceptances), or one the answer's own
-  95 % region does not promise to beat (its upper end over the split measured), or whenever the
-  model was fitted to the sweeps near the verified bias only (a local fit, whose law and region
-  hold only there), the model's law, linearised at the verified bias, says how far to go (the
-  Gauss-Newton step: the split vector is smooth in the bias there). An answer further than
-  twice that step, and further than the local design reaches (``[experiment] bias_step``), is
-  not that correction: another root of the law, another point of a whole set of degenerate
-  biases (more electrodes than the two goals need), or the law carried where no sweep measured
-  it. The run takes the linearised step instead (no longer than ``bias_step``), which the data
-  around the verified bias support, and measures the local design there.
+* :func:`outside_band` (any criterion): an answer whose model puts a mode outside the band the
+  device states for its modes is the law carried where no sweep measured it; the run takes the
+  step the law linearised at the iteration's bias asks, no longer than the local design's step.
+* :func:`worse_than_measured` (degenerate modes): an answer whose own model predicts, at the
+  DAC code that will be applied, a split over :data:`WORSE` times the least one a verification
+  of the run measured and over :data:`WORSE_ACCEPTANCES` acceptances is an extrapolation the
+  model itself does not believe; the run goes back to that verification's bias and measures
+  the local design.
+* :func:`untrusted_step` (degenerate modes): once a verification measured a split near
+  degenerate modes (under :data:`~sysid_core.drift.tracker.NEAR_ACCEPTANCES` acceptances), or
+  one the answer's own 95 % region does not promise to beat (its upper end over the split
+  measured), or whenever the model was fitted to the sweeps near the verified bias only (a
+  local fit, whose law and region hold only there), the model's law, linearised at the
+  verified bias, says how far to go (the Gauss-Newton step: the split vector is smooth in the
+  bias there). An answer further than twice that step, and further than the local design
+  reaches (``[experiment] bias_step``), is not that correction: another root of the law,
+  another point of a whole set of degenerate biases (more electrodes than the two goals
+  need), or the law carried where no sweep measured it. The run takes the linearised step
+  instead (no longer than ``bias_step``), which the data around the verified bias support,
+  and measures the local design there.
 
 And one rule for a model's verdict that the modes cannot meet: :func:`unsure_unreachable`, the
 least split the model's 95 % region holds at its best reachable bias. A verdict whose region
@@ -38,6 +42,8 @@ __all__ = [
     "BEYOND_LINEAR",
     "WORSE",
     "WORSE_ACCEPTANCES",
+    "linearised_step",
+    "outside_band",
     "unsure_unreachable",
     "untrusted_step",
     "worse_than_measured",
@@ -118,7 +124,22 @@ def untrusted_step(
     jump = float(np.max(np.abs(np.asarray(answer, dtype=float)[tuned] - b0)))
     if jump <= bias_step:
         return None
-    h = 1e-3 * bias_step
+    step = linearised_step(model, b0, 1e-3 * bias_step)
+    if not np.all(np.isfinite(step)) or jump <= BEYOND_LINEAR * float(np.max(np.abs(step))):
+        return None
+    # no further than the local design reached
+    step *= min(1.0, bias_step / max(float(np.max(np.abs(step))), 1e-300))
+    out = where.copy()
+    out[tuned] = b0 + step
+    return out
+
+
+def linearised_step(model: FittedModel, b0: np.ndarray, h: float) -> np.ndarray:
+    """The Gauss-Newton step (V, the model's electrodes) from ``b0`` toward degenerate modes.
+
+    The split vector's Jacobian by central differences of ``h`` volts; the step is its
+    least-squares solution (NaN where the model has no modes near ``b0``).
+    """
     s0 = split_vector_hz(model.M, model.stiffness(b0))
     jac = np.empty((2, b0.size))
     for k in range(b0.size):
@@ -128,13 +149,36 @@ def untrusted_step(
             split_vector_hz(model.M, model.stiffness(b0 + e))
             - split_vector_hz(model.M, model.stiffness(b0 - e))
         ) / (2 * h)
-    step = -np.linalg.lstsq(jac, s0, rcond=None)[0]
-    if not np.all(np.isfinite(step)) or jump <= BEYOND_LINEAR * float(np.max(np.abs(step))):
+    return np.asarray(-np.linalg.lstsq(jac, s0, rcond=None)[0], dtype=float)
+
+
+def outside_band(
+    model: FittedModel,
+    predicted_hz: np.ndarray,
+    start: np.ndarray,
+    tuned: list[int],
+    band_hz: tuple[float, float] | None,
+    bias_step: float,
+) -> np.ndarray | None:
+    """The bias to apply instead of an answer whose modes lie outside the device's band.
+
+    The device states the band its modes lie in (``band_hz``, the whole-band sweep's). An
+    answer whose model predicts a mode outside it (or none) carried the law where no sweep
+    measured it: a quadratic law chosen on a ±0.25 V design, carried 5 V, can put the modes
+    70 times higher than any sweep measured them. The run takes the step
+    the law linearised at ``start`` (every electrode) asks instead, no longer than
+    ``bias_step``; if that step is not finite, it stays at ``start``. None when the answer's
+    modes are inside the band (or the device states none).
+    """
+    f = np.asarray(predicted_hz, dtype=float)
+    if band_hz is None or (
+        np.all(np.isfinite(f)) and band_hz[0] <= f.min() <= f.max() <= band_hz[1]
+    ):
         return None
-    # no further than the local design reached
-    step *= min(1.0, bias_step / max(float(np.max(np.abs(step))), 1e-300))
-    out = where.copy()
-    out[tuned] = b0 + step
+    out = np.asarray(start, dtype=float).copy()
+    step = linearised_step(model, out[tuned], 1e-3 * bias_step)
+    if np.all(np.isfinite(step)):
+        out[tuned] += step * min(1.0, bias_step / max(float(np.max(np.abs(step))), 1e-300))
     return out
 
 

@@ -360,3 +360,33 @@ def test_a_tracked_run_converges_on_its_windows_forecast_of_the_end(
     end = [g for g in goals if g.name == END_GOAL]
     assert len(end) == 1 and end[0].limit_hz == pytest.approx((aim or 1.0) * ACCEPTANCE)
     assert not any("aiming at" in g.name or "upper bound" in g.name for g in goals)
+
+
+def test_an_answer_whose_modes_leave_the_device_band_is_replaced_by_the_linearised_step() -> None:
+    """A device states the band its modes lie in. An answer whose model puts the modes outside
+    it carried the law where no sweep measured it: the run takes the step the law linearised at
+    the iteration's bias asks, no longer than the local design's step, and says so. Here the
+    cloverleaf's band is cut to end under the answer's degenerate frequency; with the paper's
+    band the same answer stands."""
+    from sysid_cloverleaf import CloverleafGyro
+
+    model = fit(simulate(cloverleaf_truth(), PAPER_BIASES, PAPER_FREQS))
+    start = np.array([1.0, 1.0, 0.0])
+    space = BiasSpace(["B1", "B2", "B3"], ["B1", "B2"], start, (-10.0, 10.0), V_GYRO)
+    gyro = CloverleafGyro(seed=1)
+    reg = get_registry()
+    criterion = reg.criterion("degenerate", solver=reg.solver("clarabel"))
+    lines: list[str] = []
+    kwargs = {"bias_step": 0.25, "last_iteration": False, "say": lines.append}
+    plain = answer(criterion, model, space, SimpleNamespace(device=gyro), 2, **kwargs)  # type: ignore[arg-type]
+    assert not plain.moved and "outside_band_answer" not in plain.result.info
+    f_answer = float(plain.result.frequencies_hz[0])
+    gyro.band_hz = (gyro.band_hz[0], f_answer - 1.0)
+    step = answer(criterion, model, space, SimpleNamespace(device=gyro), 2, **kwargs)  # type: ignore[arg-type]
+    assert step.moved
+    assert "outside the device's band" in lines[-1]
+    np.testing.assert_allclose(step.result.info["outside_band_answer"], plain.bias)
+    assert np.max(np.abs(step.bias - start)) <= 0.25 + 1e-12
+    assert step.bias[2] == start[2]
+    # the step goes toward the answer: the model's split there is under the split at the start
+    assert model.split_hz(step.bias[:2]) < model.split_hz(start[:2])
