@@ -33,7 +33,7 @@ from sysid_core.tuning.criteria import (
 from sysid_core.verdict.dac import apply_best_code
 from sysid_core.verdict.dacfloor import dac_floor
 from sysid_core.verdict.trust import (
-    outside_band,
+    beyond_tuning,
     unsure_unreachable,
     untrusted_step,
     worse_than_measured,
@@ -142,19 +142,20 @@ def answer(
     step = _applied(result, local, model, space, device)
     limit = bias_step if local_step is None else local_step
     band = getattr(device.device, "band_hz", None)
-    stray = outside_band(
+    stray = beyond_tuning(
         model, step.result.frequencies_hz, space.start_bias, space.index, band, limit
     )
     if stray is not None:
         bias = check_bias(device.device, stray)
         say(
             f"iteration {it}: the answer [{', '.join(f'{b:.4f}' for b in step.bias)}] V puts the "
-            f"modes at {' / '.join(f'{f:.6g}' for f in step.result.frequencies_hz)} Hz, outside "
-            f"the device's band {band[0]:.6g}-{band[1]:.6g} Hz: its law is carried where no "  # type: ignore[index]
-            "sweep measured it; taking the step the law asks at this bias and measuring there"
+            f"modes at {' / '.join(f'{f:.6g}' for f in step.result.frequencies_hz)} Hz, beyond "
+            f"what any bias does to modes at {band[0]:.6g}-{band[1]:.6g} Hz (the device's "  # type: ignore[index]
+            "band): its law is carried where no sweep measured it; taking the step the law "
+            "asks at this bias and measuring there"
         )
         result = _result_at(bias, space, model, criterion.name)
-        result.info["outside_band_answer"] = [float(b) for b in step.bias]
+        result.info["beyond_tuning_answer"] = [float(b) for b in step.bias]
         return Answer(result, bias, True, model)
     back = worse_than_measured(step.result, criterion.name, least_measured, acceptance_hz)
     if back is not None:

@@ -3,9 +3,10 @@
 A model answers anywhere inside the limits, but its bias law is only measured near the biases
 the run swept. Three rules keep the run from stepping where its data do not reach:
 
-* :func:`outside_band` (any criterion): an answer whose model puts a mode outside the band the
-  device states for its modes is the law carried where no sweep measured it; the run takes the
-  step the law linearised at the iteration's bias asks, no longer than the local design's step.
+* :func:`beyond_tuning` (any criterion): an answer whose model puts a mode more than
+  :data:`TUNING_REACH` times outside the band the device states for its modes is the law
+  carried where no sweep measured it; the run takes the step the law linearised at the
+  iteration's bias asks, no longer than the local design's step.
 * :func:`worse_than_measured` (degenerate modes): an answer whose own model predicts, at the
   DAC code that will be applied, a split over :data:`WORSE` times the least one a verification
   of the run measured and over :data:`WORSE_ACCEPTANCES` acceptances is an extrapolation the
@@ -40,10 +41,11 @@ from sysid_core.tuning.criteria import BiasSpace, TuningResult
 
 __all__ = [
     "BEYOND_LINEAR",
+    "TUNING_REACH",
     "WORSE",
     "WORSE_ACCEPTANCES",
+    "beyond_tuning",
     "linearised_step",
-    "outside_band",
     "unsure_unreachable",
     "untrusted_step",
     "worse_than_measured",
@@ -55,6 +57,13 @@ __all__ = [
 WORSE = 2.0
 #: ... and more than this many acceptances.
 WORSE_ACCEPTANCES = 10.0
+#: No bias moves a mode by this factor of frequency (stiffness by its square): a parallel-plate
+#: electrode's negative stiffness reaches 8/27 of the mechanical stiffness at pull-in, which
+#: lowers a mode by 16 %, and electrostatic stiffening is of that order or less. A model that
+#: puts a mode outside ``[low / TUNING_REACH, high * TUNING_REACH]`` of the device's band
+#: (``band_hz``, where the modes lie at the start) has left what any tuning reaches
+#: (:func:`beyond_tuning`).
+TUNING_REACH = 2.0
 #: An answer further from a near verified bias than this many times the linearised step is not
 #: the local correction (its curvature term would be as large as the step itself).
 BEYOND_LINEAR = 2.0
@@ -152,7 +161,7 @@ def linearised_step(model: FittedModel, b0: np.ndarray, h: float) -> np.ndarray:
     return np.asarray(-np.linalg.lstsq(jac, s0, rcond=None)[0], dtype=float)
 
 
-def outside_band(
+def beyond_tuning(
     model: FittedModel,
     predicted_hz: np.ndarray,
     start: np.ndarray,
@@ -160,20 +169,22 @@ def outside_band(
     band_hz: tuple[float, float] | None,
     bias_step: float,
 ) -> np.ndarray | None:
-    """The bias to apply instead of an answer whose modes lie outside the device's band.
+    """The bias to apply instead of an answer whose modes no tuning reaches.
 
-    The device states the band its modes lie in (``band_hz``, the whole-band sweep's). An
-    answer whose model predicts a mode outside it (or none) carried the law where no sweep
-    measured it: a quadratic law chosen on a ±0.25 V design, carried 5 V, can put the modes
-    70 times higher than any sweep measured them. The run takes the step
-    the law linearised at ``start`` (every electrode) asks instead, no longer than
-    ``bias_step``; if that step is not finite, it stays at ``start``. None when the answer's
-    modes are inside the band (or the device states none).
+    The device states the band its modes lie in at the start (``band_hz``); a tuning moves
+    them, but by far less than :data:`TUNING_REACH` times in frequency. An answer whose model
+    predicts a mode beyond that (or none) carried the law where no sweep measured it: a
+    quadratic law chosen on a ±0.25 V design, carried 5 V, can put the modes 70 times higher
+    than any sweep measured them. The run takes the step the law linearised at ``start``
+    (every electrode) asks instead, no longer than ``bias_step``; if that step is not finite,
+    it stays at ``start``. None when the answer's modes are within reach (or the device
+    states no band).
     """
     f = np.asarray(predicted_hz, dtype=float)
-    if band_hz is None or (
-        np.all(np.isfinite(f)) and band_hz[0] <= f.min() <= f.max() <= band_hz[1]
-    ):
+    if band_hz is None:
+        return None
+    lo, hi = band_hz[0] / TUNING_REACH, band_hz[1] * TUNING_REACH
+    if np.all(np.isfinite(f)) and lo <= f.min() <= f.max() <= hi:
         return None
     out = np.asarray(start, dtype=float).copy()
     step = linearised_step(model, out[tuned], 1e-3 * bias_step)

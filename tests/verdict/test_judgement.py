@@ -362,30 +362,35 @@ def test_a_tracked_run_converges_on_its_windows_forecast_of_the_end(
     assert not any("aiming at" in g.name or "upper bound" in g.name for g in goals)
 
 
-def test_an_answer_whose_modes_leave_the_device_band_is_replaced_by_the_linearised_step() -> None:
-    """A device states the band its modes lie in. An answer whose model puts the modes outside
-    it carried the law where no sweep measured it: the run takes the step the law linearised at
-    the iteration's bias asks, no longer than the local design's step, and says so. Here the
-    cloverleaf's band is cut to end under the answer's degenerate frequency; with the paper's
-    band the same answer stands."""
+def test_an_answer_whose_modes_no_tuning_reaches_is_replaced_by_the_linearised_step() -> None:
+    """A device states the band its modes lie in at the start; no bias moves them by a factor of
+    two (:data:`~sysid_core.verdict.trust.TUNING_REACH`). A model whose law puts the answer's
+    modes beyond that carried its law where no sweep measured it: the run takes the step the law
+    linearised at the iteration's bias asks, no longer than the local design's step, and says
+    so. Here the fitted cloverleaf model with its mass divided by 9: the same degenerate bias,
+    its modes 3 times the cloverleaf's band; the model as fitted answers as before."""
+    import dataclasses
+
     from sysid_cloverleaf import CloverleafGyro
 
-    model = fit(simulate(cloverleaf_truth(), PAPER_BIASES, PAPER_FREQS))
+    from sysid_core.verdict.trust import TUNING_REACH
+
+    fitted = fit(simulate(cloverleaf_truth(), PAPER_BIASES, PAPER_FREQS))
     start = np.array([1.0, 1.0, 0.0])
     space = BiasSpace(["B1", "B2", "B3"], ["B1", "B2"], start, (-10.0, 10.0), V_GYRO)
-    gyro = CloverleafGyro(seed=1)
+    device = SimpleNamespace(device=CloverleafGyro(seed=1))
     reg = get_registry()
     criterion = reg.criterion("degenerate", solver=reg.solver("clarabel"))
     lines: list[str] = []
     kwargs = {"bias_step": 0.25, "last_iteration": False, "say": lines.append}
-    plain = answer(criterion, model, space, SimpleNamespace(device=gyro), 2, **kwargs)  # type: ignore[arg-type]
-    assert not plain.moved and "outside_band_answer" not in plain.result.info
-    f_answer = float(plain.result.frequencies_hz[0])
-    gyro.band_hz = (gyro.band_hz[0], f_answer - 1.0)
-    step = answer(criterion, model, space, SimpleNamespace(device=gyro), 2, **kwargs)  # type: ignore[arg-type]
+    plain = answer(criterion, fitted, space, device, 2, **kwargs)  # type: ignore[arg-type]
+    assert not plain.moved and "beyond_tuning_answer" not in plain.result.info
+    model = dataclasses.replace(fitted, M=fitted.M / 9.0)
+    assert model.modal_frequencies_hz(start[:2])[0] > TUNING_REACH * device.device.band_hz[1]
+    step = answer(criterion, model, space, device, 2, **kwargs)  # type: ignore[arg-type]
     assert step.moved
-    assert "outside the device's band" in lines[-1]
-    np.testing.assert_allclose(step.result.info["outside_band_answer"], plain.bias)
+    assert "beyond what any bias does" in lines[-1]
+    np.testing.assert_allclose(step.result.info["beyond_tuning_answer"], plain.bias, atol=1e-6)
     assert np.max(np.abs(step.bias - start)) <= 0.25 + 1e-12
     assert step.bias[2] == start[2]
     # the step goes toward the answer: the model's split there is under the split at the start
