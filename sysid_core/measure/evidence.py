@@ -48,8 +48,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from sysid_core.errors import ModelError
 from sysid_core.data.schema import measured_mask
+from sysid_core.errors import ModelError
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import mode_peaks, principal_part
 

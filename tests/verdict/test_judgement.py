@@ -6,6 +6,7 @@ Truth: the simulated gyro's undamped modal frequencies at the end of the run
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -20,7 +21,7 @@ from sysid_core.measure.verification import Verification
 from sysid_core.model.facts import FitFacts
 from sysid_core.plugin.registry import get_registry
 from sysid_core.tuning.criteria import BiasSpace
-from sysid_core.verdict.answer import answer, best_effort
+from sysid_core.verdict.answer import answer
 from sysid_core.verdict.judgement import (
     DRIFTING_AIM,
     RESOLVE_FACTOR,
@@ -29,6 +30,7 @@ from sysid_core.verdict.judgement import (
     honest_goals,
 )
 from sysid_core.verdict.trust import WORSE, worse_than_measured
+from sysid_core.verdict.unreachable import best_effort
 
 ACCEPTANCE = 0.002
 
@@ -395,3 +397,74 @@ def test_an_answer_whose_modes_no_tuning_reaches_is_replaced_by_the_linearised_s
     assert step.bias[2] == start[2]
     # the step goes toward the answer: the model's split there is under the split at the start
     assert model.split_hz(step.bias[:2]) < model.split_hz(start[:2])
+
+
+def test_the_linearised_step_is_applied_at_the_dac_code_the_model_predicts_best() -> None:
+    """A step the trust rule takes instead of a far answer is moved to the best DAC code near it,
+    as an answer is: a step under a code would otherwise re-apply the code verified before, and
+    a run whose model says the split is there could measure it again for ever (a 29.5 kHz random
+    gyro verified 2 mHz at one code for 296 iterations, its DAC's floor never said). The
+    fitted cloverleaf model tuning B1-B3 (its degenerate biases a curve), a 10-bit DAC (19.5 mV
+    codes); a verification near the point of the curve where B3 is 3 V, an answer at another
+    point of it."""
+    import dataclasses
+
+    import scipy.optimize
+    from sysid_cloverleaf import CloverleafGyro, CloverleafParameters
+
+    from sysid_core.device.measuring import GuardedDevice, applied_bias
+    from sysid_core.model.modal import split_vector_hz
+    from sysid_core.tuning.criteria import solve_criterion
+
+    params = CloverleafParameters()
+    truth = dataclasses.replace(
+        cloverleaf_truth(),
+        K0=params.stiffness(),
+        Kp=params.electrode_stiffness(),
+        electrodes=tuple(params.electrodes),
+    )
+    design = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    model = fit(simulate(truth, design, PAPER_FREQS))
+    gyro = CloverleafGyro(seed=1, dac_bits=10)
+    reg = get_registry()
+    criterion = reg.criterion("degenerate", solver=reg.solver("clarabel"))
+    start = BiasSpace(["B1", "B2", "B3"], ["B1", "B2", "B3"], np.zeros(3), (-10.0, 10.0), V_GYRO)
+    first = solve_criterion(criterion, model, start)[0].bias
+
+    def split(b12: np.ndarray) -> np.ndarray:
+        return split_vector_hz(model.M, model.stiffness([*b12, 3.0]))
+
+    # the point of the curve with B3 at 3 V, from the first answer's B1 and B2
+    other = np.array([*scipy.optimize.least_squares(split, first[:2], xtol=1e-14).x, 3.0])
+    assert model.split_hz(other) < 1e-6 and np.max(np.abs(other - first)) > 1.0
+    verified = applied_bias(gyro, other + np.array([0.004, -0.004, 0.0]))
+    assert verified is not None
+    space = BiasSpace(["B1", "B2", "B3"], ["B1", "B2", "B3"], verified, (-10.0, 10.0), V_GYRO)
+    lines: list[str] = []
+    step = answer(
+        criterion,
+        model,
+        space,
+        GuardedDevice(gyro, "cloverleaf"),
+        3,
+        bias_step=0.25,
+        last_iteration=False,
+        say=lines.append,
+        acceptance_hz=ACCEPTANCE,
+        latest_measured=(0.004, verified),
+    )
+    assert "untrusted_answer" in step.result.info, lines
+    np.testing.assert_allclose(applied_bias(gyro, step.bias), step.bias)  # a code
+    code = gyro.bias_resolution
+    assert np.max(np.abs(step.bias - other)) <= 2 * code
+    neighbours = [
+        model.split_hz(step.bias + code * np.array(d))
+        for d in itertools.product((-1, 0, 1), repeat=3)
+    ]
+    assert model.split_hz(step.bias) <= min(neighbours) + 1e-12
+    # 10 bits leave 8 mHz at the best code: the floor the verdict reads is said with the step
+    from sysid_core.verdict.dacfloor import dac_floor
+
+    floor = dac_floor(step.result.info, ACCEPTANCE)
+    assert floor == pytest.approx(model.split_hz(step.bias), rel=1e-9)
+    assert floor > ACCEPTANCE

@@ -24,8 +24,9 @@ from sysid_core.errors import UnreachableTuningError
 from sysid_core.model.fitted import FittedModel
 from sysid_core.plugin.registry import get_registry
 from sysid_core.tuning.criteria import BiasSpace, solve_criterion
-from sysid_core.verdict.answer import _result_at, answer, best_effort
+from sysid_core.verdict.answer import answer
 from sysid_core.verdict.trust import unsure_unreachable
+from sysid_core.verdict.unreachable import best_effort, result_at
 
 ACCEPTANCE = 1e-3
 NOISE = 1e-3  # of the peak: 60 dB
@@ -83,7 +84,7 @@ def test_a_verdict_its_region_holds_ends_the_run() -> None:
     model, space, exc = verdict(1, 4.30)
     assert exc.best_value is not None and exc.best_value > 50 * ACCEPTANCE
     best = np.asarray(exc.best_bias, dtype=float)
-    there = _result_at(best, space, model, "degenerate")
+    there = result_at(best, space, model, "degenerate")
     assert unsure_unreachable(model, there, space, ACCEPTANCE) is None
     with pytest.raises(UnreachableTuningError):
         effort(model, space, exc, [])
