@@ -40,7 +40,7 @@ import numpy as np
 
 from sysid_core.clock.benchtime import acquisitions
 from sysid_core.measure.motion import PREDICTION_ERROR
-from sysid_core.measure.sweeps import MIN_POINTS, SweepPlan, grid
+from sysid_core.measure.sweeps import MIN_POINTS, SweepPlan, acquisition_grid
 
 __all__ = [
     "ANCHORS",
@@ -341,7 +341,8 @@ def scout_grid(guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
     windows, :meth:`~sysid_core.measure.sweeps.SweepPlan.following`; the band itself when
     the windows would cover most of it): ``m = σ + SCOUT_BANDWIDTHS × bw`` when the guess
     carries an uncertainty ``σ`` (the move expected from the electrodes stepped before),
-    else ``max(SCOUT_SPLITS × split, SCOUT_BANDWIDTHS × bw)``.
+    else ``max(SCOUT_SPLITS × split, SCOUT_BANDWIDTHS × bw)``; in whole acquisitions
+    (:func:`~sysid_core.measure.sweeps.acquisition_grid`).
     """
     f, bw = guess.frequencies_hz, guess.bandwidth_hz
     sigma = float(guess.uncertainty_hz.max())
@@ -353,11 +354,8 @@ def scout_grid(guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
     if windows[1][0] <= windows[0][1]:  # overlapping: one window
         windows = [(windows[0][0], windows[1][1])]
     if sum(hi - lo for lo, hi in windows) >= 0.8 * (bhi - blo):
-        return plan.band()
-    points = np.concatenate([grid(lo, hi, plan.resolution_hz) for lo, hi in windows])
-    if points.size < MIN_POINTS:
-        lo, hi = windows[0][0], windows[-1][1]
-        points = np.linspace(lo, hi, MIN_POINTS)
+        windows = [(blo, bhi)]
+    points = acquisition_grid(windows, plan.resolution_hz, plan.tones)
     return _merge(points, 1e-9 * float(f.max()))
 
 

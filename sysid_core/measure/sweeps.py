@@ -18,7 +18,7 @@ import numpy as np
 
 from sysid_core.errors import ConfigError
 
-__all__ = ["MIN_POINTS", "SweepPlan", "design_experiments", "grid"]
+__all__ = ["MIN_POINTS", "SweepPlan", "acquisition_grid", "design_experiments", "grid"]
 
 #: Fewest points in any sweep: a single-bias fit has 25 unknowns (8 real equations per point),
 #: and a resonance needs several points to show its shape.
@@ -80,6 +80,32 @@ def n_points(lo: float, hi: float, step: float) -> int:
 def grid(lo: float, hi: float, step: float) -> np.ndarray:
     """``lo, lo + step, ...`` up to ``hi`` (inclusive within rounding)."""
     return lo + step * np.arange(n_points(lo, hi, step))
+
+
+def acquisition_grid(
+    windows: Sequence[tuple[float, float]], step: float, tones: int = 1
+) -> np.ndarray:
+    """Points over ``windows`` (low, high; ascending, apart) at ``step``, in whole acquisitions.
+
+    At least :data:`MIN_POINTS`. On a device that measures ``tones`` points per acquisition,
+    as many as fill the nearest whole number of acquisitions, evenly over each window in
+    proportion to its width: an acquisition costs the same with one point as with all its
+    tones, so the last one is filled, or dropped when only a few points would spill into it
+    (25 points with 8 tones are 24: three acquisitions instead of four; 11 are 8).
+    """
+    n = sum(n_points(lo, hi, step) for lo, hi in windows)
+    tones = max(int(tones), 1)
+    target = tones * max(1, math.floor(max(n, MIN_POINTS) / tones + 0.5))
+    if target == n:
+        return np.concatenate([grid(lo, hi, step) for lo, hi in windows])
+    if tones == 1:  # too few: evenly over the span of the windows
+        return np.linspace(windows[0][0], windows[-1][1], target)
+    widths = np.array([hi - lo for lo, hi in windows])
+    counts = np.maximum(2, np.round(target * widths / widths.sum()).astype(int))
+    counts[int(np.argmax(widths))] += target - int(counts.sum())  # the widest takes the rest
+    return np.concatenate(
+        [np.linspace(lo, hi, k) for (lo, hi), k in zip(windows, counts, strict=True)]
+    )
 
 
 @dataclass(frozen=True)
