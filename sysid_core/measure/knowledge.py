@@ -119,6 +119,13 @@ class Knowledge:
             for m in self.items
         ]
 
+    def unvaried(self) -> list[str]:
+        """The tuned electrodes whose bias no kept sweep changed (none before two sweeps)."""
+        if len(self.applied) < 2:
+            return []
+        spread = np.ptp(np.concatenate([np.atleast_2d(a) for a in self.applied]), axis=0)
+        return [e for e, d in zip(self.tuned, spread, strict=True) if d <= SAME_V]
+
     def __len__(self) -> int:
         """The number of sweeps kept."""
         return len(self.items)

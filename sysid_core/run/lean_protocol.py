@@ -37,23 +37,19 @@ from sysid_core.measure.lean import (
 from sysid_core.measure.locating import locate as locate_modes
 from sysid_core.measure.locating import probe_first, probe_points
 from sysid_core.measure.motion import motion_allowance
-from sysid_core.measure.pairing import least_voltage_pair
 from sysid_core.measure.previous import PreviousModel
-from sysid_core.measure.sweeps import SweepPlan, design_experiments
+from sysid_core.measure.sweeps import SweepPlan
 from sysid_core.measure.verification import Band, Verification, modes_at
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.context import RunContext
+from sysid_core.run.electrodes import Electrodes
 from sysid_core.run.protocol_base import Found, Prefit, Protocol
 from sysid_core.tuning.criteria import TuningResult
-from sysid_core.verdict.dacfloor import beyond_reach
 
 __all__ = ["LeanProtocol"]
 
 #: Why a run measures the local design where it is now.
-MOVED = (
-    "the last answer moved the run (to the best reachable bias, or back to the least measured "
-    "split's)"
-)
+MOVED = "the last answer moved the run (to the best reachable bias, or back to a measured one)"
 REGROWN = "every electrode is tuned from now on, where the first design was"
 
 
@@ -85,10 +81,13 @@ class LeanProtocol(Protocol):
         #: Whether the probe showed both modes: a band at its step shows this gyro's modes on
         #: this bench, and is the first band a later sweep that misses them falls back to.
         self.probe_stood = False
-        #: With ``[tuning] pair``: where the pair was chosen, and where every electrode was
-        #: offered again if that is where the run still is (its design is the first one's).
-        self.paired_at: np.ndarray | None = None
-        self.regrown_at: np.ndarray | None = None
+        #: Which electrodes are tuned: a pair, or every one (:mod:`sysid_core.run.electrodes`).
+        self.electrodes = Electrodes(ctx, self.known, lambda b, path: self._learn(b, path))
+
+    @property
+    def offered(self) -> list[str] | None:  # type: ignore[override]
+        """Every configured electrode while the run tunes a pair of them (else None)."""
+        return self.electrodes.offered
 
     def data(
         self, it: int, bias: np.ndarray, folder: Path, center_hz: float | None, split_hz: float
@@ -103,7 +102,9 @@ class LeanProtocol(Protocol):
         if self.previous is not None:
             return self._from_previous(it, bias, folder)
         # every electrode offered again where the first design was: that design, over them all
-        again = self.regrown_at is not None and self.known.same(bias, self.regrown_at)
+        again = self.electrodes.regrown(bias)
+        # the electrodes a pair was chosen before, once it gave way (none at the first)
+        self.electrodes.complete(bias, folder, self.moved)
         if it > 1 and self.moved:
             self.local = True
             ctx.say(
@@ -119,7 +120,7 @@ class LeanProtocol(Protocol):
         scale = 1 if again else it
         radius = LOCAL_RADIUS * ctx.step(scale)
         if it == 1:  # the centre first (is the bench quiet?), then the electrodes to tune
-            self._centre_and_pair(bias, folder)
+            self._centre(bias, folder)
         law = ctx.config.model.stiffness
         if it == 1 or not self.known.meets_rank(bias, radius, law):
             design = ctx.design(bias, scale, quiet=self.quiet and scale == 1)
@@ -136,38 +137,11 @@ class LeanProtocol(Protocol):
             return self.known.union(), None
         return self.known.near(bias, radius), None
 
-    def _centre_and_pair(self, bias: np.ndarray, folder: Path) -> None:
-        """The centre of the first design, then the pair of electrodes to tune.
-
-        With ``[tuning] pair = true``, the degenerate criterion and more than two
-        electrodes: each stepped once (``exp-<electrode>.nc``), the linear law fitted, and the
-        pair that reaches degenerate modes with the least voltage tuned from then on
-        (:mod:`sysid_core.measure.pairing`); the other electrodes stay at ``bias`` until the
-        pair's answer is beyond its reach (:meth:`learned`).
-        """
-        ctx = self.ctx
+    def _centre(self, bias: np.ndarray, folder: Path) -> None:
+        """The centre of the first design, then the electrodes to tune (:class:`Electrodes`)."""
         if not self.known.has(bias):
             self._learn(bias, folder / "exp0.nc")
-        tuned, tuning = list(ctx.space.tuned), ctx.config.tuning
-        if not (tuning.pair and tuning.criterion == "degenerate" and len(tuned) > 2):
-            return
-        steps = design_experiments(bias, ctx.space.index, ctx.step(1), ctx.space.limits)
-        for row, name in zip(steps[1:], tuned, strict=True):
-            if not self.known.has(row):
-                self._learn(row, folder / f"exp-{name}.nc")
-        model, _ = ctx.fitter.fit(self.known.union())
-        sp = ctx.space
-        pair = least_voltage_pair(model, bias[sp.index], sp.limits, sp.structure_potential)
-        if pair is None:
-            ctx.say(
-                "iteration 1: by the first sweeps' law no pair of the electrodes reaches "
-                "degenerate modes inside the limits; tuning all of them"
-            )
-            return
-        ctx.say(f"iteration 1: {pair.describe(tuned)}")
-        self.offered, self.paired_at = tuned, bias.copy()
-        ctx.retune(list(pair.electrodes))
-        self.known.retune(pair.electrodes, bias)
+        self.electrodes.choose(bias, folder)
 
     def every_sweep(self, it: int, bias: np.ndarray) -> xr.Dataset | None:
         """Every sweep so far, if the run fits only the sweeps near ``bias`` (and there are more).
@@ -258,23 +232,11 @@ class LeanProtocol(Protocol):
     ) -> None:
         """Keep whether the run moved, and the verified bias and modes if verified.
 
-        A pair whose answer (``info``) is beyond its reach (out of reach inside the limits, or
-        the DAC's best code leaving more than the acceptance:
-        :func:`~sysid_core.verdict.dacfloor.beyond_reach`) gives way to every electrode: the
-        next local design steps them all, and every sweep set aside counts again.
+        A pair whose answer (``info``) is beyond its reach gives way to every electrode
+        (:meth:`~sysid_core.run.electrodes.Electrodes.give_way`).
         """
         self.moved = moved
-        acceptance = self.ctx.config.tuning.acceptance_hz
-        why = None if self.offered is None else beyond_reach(info or {}, acceptance)
-        if self.offered is not None and why is not None:
-            every, pair, self.offered = self.offered, self.ctx.space.tuned, None
-            self.ctx.say(
-                f"the pair {' and '.join(pair)} cannot meet the goal: {why}; tuning every "
-                f"electrode ({', '.join(every)}) from now on"
-            )
-            self.ctx.retune(every)
-            self.known.retune(every, bias)
-            self.regrown_at = self.paired_at
+        self.electrodes.give_way(info, bias)
         if ver.verified and ver.frequencies_hz is not None:
             self.last_verified = (bias.copy(), np.asarray(ver.frequencies_hz, dtype=float))
             self.splits.append(float(ver.split_hz or 0.0))

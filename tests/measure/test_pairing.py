@@ -160,22 +160,30 @@ def test_a_pair_whose_dac_codes_miss_the_acceptance_gives_way_to_every_electrode
     tmp_path: Path,
 ) -> None:
     """Random gyro 639 (five electrodes, a good lab's clock and drift, 8 tones, a 16-bit DAC):
-    the pair B1+B2 meets degenerate modes, but its DAC's best code near the answer leaves
-    1.08 mHz by the first model, over the 1 mHz acceptance (a run tuning that pair
-    alone used to hover at that code for 67 iterations and stop at the DAC's floor, 2.2 mHz). Every
-    electrode's codes are a finer lattice: the run tunes all five from iteration 2 on and ends
-    within the acceptance."""
+    a pair meets degenerate modes, but at one of its answers its DAC's best code is predicted to
+    leave more than the 1 mHz acceptance (a run tuning a pair alone used to hover at such a code
+    for 67 iterations and stop at the DAC's floor, 2.2 mHz). Every electrode's codes are a finer
+    lattice: the run tunes all five from the next iteration on and ends within the
+    acceptance."""
     seed = 639
     bench = {"clock": True, "seed": seed, "tones": 8, **GOOD_LAB}
     device = get_registry().device("random-gyro", seed=seed, bench=bench)
     config = degenerate_config(device, {"seed": seed, "bench": bench}, iterations=60)
     config["tuning"].update(electrodes=list(device.electrodes), pair=True, acceptance_hz=0.001)
     summary = tune(config, tmp_path / "run", device=device, plots=False)
-    first = json.loads((tmp_path / "run" / "iter01" / "tuning.json").read_text())
-    assert len(list((tmp_path / "run" / "iter01").glob("exp-B*.nc"))) == 5  # a pair was chosen
-    assert "unreachable" not in first and first["dac_code"]["predicted_split_hz_chosen"] > 0.001
+    tunings = [
+        json.loads(p.read_text()) for p in sorted((tmp_path / "run").glob("iter*/tuning.json"))
+    ]
+    assert len(list((tmp_path / "run" / "iter01").glob("exp-B*.nc"))) >= 2  # a pair was chosen
+    short = next(
+        i
+        for i, t in enumerate(tunings)
+        if t.get("dac_code", {}).get("predicted_split_hz_chosen", 0.0) > 0.001
+    )
+    assert "unreachable" not in tunings[short]
+    assert np.count_nonzero(tunings[short]["bias"]) == 2  # the pair's answer
     assert summary.tuned == list(device.electrodes)
-    later = json.loads((tmp_path / "run" / "iter02" / "tuning.json").read_text())
+    later = tunings[short + 1]  # every electrode's model
     assert later["dac_code"]["predicted_split_hz_chosen"] < 0.5 * 0.001  # a finer lattice
     f = device.true_modal_frequencies_hz(np.asarray(summary.bias))
     assert summary.converged and f[1] - f[0] <= 0.001
