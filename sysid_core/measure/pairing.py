@@ -8,14 +8,16 @@ of 2-6 electrodes the designs of a run tuning all of them took twice the bench t
 tuning the first two, for the same result (docs/studies/dwells.md, "A pair of electrodes,
 chosen by the run").
 
-So a lean run given more than two electrodes for the degenerate criterion first steps each of
-them once (the linear law's rank condition, ``n + 1`` sweeps), fits that law, and asks each pair
+So a lean run given more than two electrodes for the degenerate criterion first steps them once
+each, in turn (the linear law's rank condition, ``n + 1`` sweeps), fits that law, and asks each pair
 ``(a, b)`` for its exact degenerate bias with the other electrodes where they are
 (:func:`~sysid_core.model.modal.degenerate_w`; of the two roots ``v_gyro ± √w`` of each
 electrode, the one nearer its bias inside the limits). :func:`least_voltage_pair` returns the
 pair whose bias lies inside the limits with the smallest largest step from the current bias: the
-shortest extrapolation of the law it was fitted with. The run then tunes that pair; the other
-electrodes stay at their bias. No pair inside the limits: every electrode stays tuned.
+shortest extrapolation of the law it was fitted with. From the third electrode stepped, a
+pair of those stepped whose bias lies within the step ends the stepping (:func:`choose_pair`,
+:func:`pair_within`): its law is interpolated, not extrapolated. The run then tunes that pair;
+the other electrodes stay at their bias. No pair inside the limits: every electrode stays tuned.
 
 The first sweeps' law can be wrong about a pair far from where it was measured, and two
 electrodes offer the DAC's codes on a coarser lattice than more do. So a pair whose answer is
@@ -163,12 +165,13 @@ def choose_pair(
 
     ``rows``: the bias that steps each of ``tuned`` by ``step`` from ``bias`` (theirs), which
     ``learn(row, name)`` measures; ``fit(names)``: the linear law of ``names`` from every sweep
-    so far. From the second electrode stepped, a pair within the step (:func:`pair_within`)
-    ends the stepping; else, once all are stepped, the pair of least voltage, or None.
+    so far. From the third electrode stepped (three pairs to choose from), a pair within the
+    step (:func:`pair_within`) ends the stepping; else, once all are stepped, the pair of least
+    voltage, or None.
     """
     for k, (row, name) in enumerate(zip(rows, tuned, strict=True), start=1):
         learn(row, name)
-        if 2 <= k < len(tuned) and (
+        if 3 <= k < len(tuned) and (
             pair := pair_within(fit(tuned[:k]), bias[:k], space, step, tuned[k:])
         ):
             return pair

@@ -2,7 +2,8 @@
 
 Lives here: the configuration file (:mod:`.config`), building a run's components
 (:mod:`.components`) and the context its steps share (:mod:`.context`), the protocols that say
-what each iteration measures (:mod:`.protocols`), the loop (:mod:`.pipeline`), the summary
+what each iteration measures (:mod:`.protocols`; which electrodes a lean run tunes:
+:mod:`.electrodes`), the loop (:mod:`.pipeline`), the summary
 (:mod:`.summary`) and the plots (:mod:`.plots`; the split over the bench clock:
 :mod:`.timeline`). The jobs the loop calls have rooms of their own: the bench and its clock
 (:mod:`sysid_core.clock`), measuring (:mod:`sysid_core.measure`), the gyro in time

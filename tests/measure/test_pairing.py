@@ -187,3 +187,65 @@ def test_a_pair_whose_dac_codes_miss_the_acceptance_gives_way_to_every_electrode
     assert later["dac_code"]["predicted_split_hz_chosen"] < 0.5 * 0.001  # a finer lattice
     f = device.true_modal_frequencies_hz(np.asarray(summary.bias))
     assert summary.converged and f[1] - f[0] <= 0.001
+
+
+def test_a_pair_within_the_step_is_chosen_before_the_other_electrodes_are_stepped(
+    truth: GyroTruth,
+) -> None:
+    """The cloverleaf's exact law and a fourth electrode, B4, acting as B1 does at half its
+    strength. Stepped by 5 V, B2 and B3 reach degenerate modes 4.35 V away, within the step,
+    once three electrodes are stepped, so B4 is not stepped; stepped by 4 V no pair of the
+    three is within it and B4 is stepped too. Two stepped electrodes leave no pair to choose."""
+    from tuning.test_tuning import exact_model
+
+    from sysid_core.measure.pairing import choose_pair, pair_within
+    from sysid_core.tuning.criteria import BiasSpace
+
+    four = [*ALL, "B4"]
+    truth4 = dataclasses.replace(
+        truth, Kp=np.concatenate([truth.Kp, 0.5 * truth.Kp[:1]]), electrodes=tuple(four)
+    )
+    space = BiasSpace(four, four, np.zeros(4), (-10.0, 10.0), truth.structure_potential)
+    three = exact_model(truth4, ALL)
+    assert pair_within(three, np.zeros(3), space, 4.0, ["B4"]) is None
+    found = pair_within(three, np.zeros(3), space, 5.0, ["B4"])
+    assert found is not None and found.electrodes == ("B2", "B3") and found.unstepped == ("B4",)
+    assert "B4 not stepped" in found.describe(four)
+    assert pair_within(exact_model(truth4, ALL[:2]), np.zeros(2), space, 5.0, ["B3"]) is None
+    for step, stepped in ((5.0, ALL), (4.0, four)):
+        measured: list[str] = []
+        pair = choose_pair(
+            four,
+            np.eye(4) * step,
+            lambda row, name, seen=measured: seen.append(name),  # type: ignore[misc]
+            lambda names: exact_model(truth4, names),
+            np.zeros(4),
+            space,
+            step,
+        )
+        assert measured == stepped
+        assert pair is not None
+
+
+def test_electrodes_never_stepped_are_stepped_once_the_pair_gives_way(tmp_path: Path) -> None:
+    """Random gyro 666 (five electrodes, 13.45 kHz, a good lab's clock, one tone, a 16-bit DAC,
+    the first design's step 3 V): B1 and B2 reach degenerate modes within the step once three
+    electrodes are stepped, so B4 and B5 are not; the pair's DAC codes then miss the 1 mHz
+    acceptance and it gives way. B4 and B5 are stepped once where the run is, the fit of every
+    sweep holds all five laws, and the run ends within the acceptance (it used to stop with the
+    rank condition's error: B4 and B5 never varied)."""
+    seed = 666
+    bench = {"clock": True, "seed": seed, "tones": 1, **GOOD_LAB}
+    device = get_registry().device("random-gyro", seed=seed, bench=bench)
+    config = degenerate_config(device, {"seed": seed, "bench": bench}, iterations=60)
+    config["tuning"].update(electrodes=list(device.electrodes), pair=True, acceptance_hz=0.001)
+    config["experiment"] = {"bias_step": 3.0}
+    config["model"] = {"structure": device.structure}
+    summary = tune(config, tmp_path / "run", device=device, plots=False)
+    first = sorted(p.name for p in (tmp_path / "run" / "iter01").glob("exp-B[0-9].nc"))
+    assert first == ["exp-B1.nc", "exp-B2.nc", "exp-B3.nc"]
+    later = sorted(p.name for p in (tmp_path / "run").glob("iter0[2-9]/exp-B[0-9].nc"))
+    assert later == ["exp-B4.nc", "exp-B5.nc"]
+    assert summary.tuned == list(device.electrodes)
+    f = device.true_modal_frequencies_hz(np.asarray(summary.bias))
+    assert summary.converged and f[1] - f[0] <= 0.001
