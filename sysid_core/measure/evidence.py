@@ -340,7 +340,28 @@ def assess_window(sweep: xr.Dataset, model: FittedModel, band: bool = False) -> 
                 f"their bandwidths {bw[0]:.3g} / {bw[1]:.3g} Hz (the step must not exceed them)",
             )
         )
+    observed, seen, detail = _observed(model, lo, hi, f.size, peak, band)
+    checks.append(Check("observed", observed, detail))
+    return WindowAssessment(
+        window_hz=(lo, hi),
+        step_hz=step,
+        band=band,
+        frequencies_hz=modes,
+        bandwidth_hz=bw,
+        checks=checks,
+        seen=seen,
+    )
 
+
+def _observed(
+    model: FittedModel, lo: float, hi: float, n: int, peak: float, band: bool
+) -> tuple[bool, bool, str]:
+    """The ``observed`` check of a window of ``n`` points, ``lo``-``hi`` Hz: passed, seen, why.
+
+    Each mode's own peak is a sizeable share of the data's peak (``seen``), and on a narrow
+    window the model peaks no higher than :data:`MAX_MODEL_PEAK` times the data. A fit with no
+    two resonances (overdamped: real poles) shows nothing.
+    """
     try:
         t, bc, cc = principal_part(
             model.M,
@@ -352,26 +373,18 @@ def assess_window(sweep: xr.Dataset, model: FittedModel, band: bool = False) -> 
             model.structure.side,
         )
     except ModelError as exc:  # an overdamped fit: the window does not show two resonances
-        checks.append(Check("observed", False, f"the fit has no two resonances: {exc}"))
-        return WindowAssessment(
-            window_hz=(lo, hi),
-            step_hz=step,
-            band=band,
-            frequencies_hz=modes,
-            bandwidth_hz=bw,
-            checks=checks,
-            seen=False,
-        )
+        return False, False, f"the fit has no two resonances: {exc}"
     poles, own = mode_peaks(t, bc, cc)
     ratio = own / max(peak, 1e-300)
-    observed = bool(np.all(ratio >= MIN_CONTRIBUTION))
+    seen = bool(np.all(ratio >= MIN_CONTRIBUTION))
+    observed = seen
     detail = (
         f"each mode's own peak is {ratio[0]:.3g} / {ratio[1]:.3g} of the data's peak "
         f"(need >= {MIN_CONTRIBUTION:g})"
     )
     if not band:
         dense = np.union1d(
-            np.linspace(lo, hi, 10 * f.size),
+            np.linspace(lo, hi, 10 * n),
             np.clip(np.abs(poles.imag) / (2 * np.pi), lo, hi),
         )
         model_peak = float(_sigma(model.response(dense, [])).max()) / max(peak, 1e-300)
@@ -380,13 +393,4 @@ def assess_window(sweep: xr.Dataset, model: FittedModel, band: bool = False) -> 
             f"; the model peaks at {model_peak:.3g} times the data's peak "
             f"(limit {MAX_MODEL_PEAK:g})"
         )
-    checks.append(Check("observed", observed, detail))
-    return WindowAssessment(
-        window_hz=(lo, hi),
-        step_hz=step,
-        band=band,
-        frequencies_hz=modes,
-        bandwidth_hz=bw,
-        checks=checks,
-        seen=bool(np.all(ratio >= MIN_CONTRIBUTION)),
-    )
+    return observed, seen, detail

@@ -228,18 +228,24 @@ def test_an_answer_predicted_worse_than_a_measured_split_goes_back(
     assert WORSE == 2.0
 
 
-def test_answer_goes_back_to_the_least_measured_split() -> None:
-    """Through :func:`answer` on a fitted cloverleaf model: with a least measured split and an
-    acceptance far under what its answer's DAC code leaves, the answer is the measured bias,
-    marked as a move (the next iteration measures the local design there) and said."""
+def _paper_answer_setup():  # type: ignore[no-untyped-def]
+    """The cloverleaf model fitted to the paper's three experiments, tuning B1 and B2 from
+    (1, 1, 0) V, the cloverleaf device and the degenerate criterion."""
     from sysid_cloverleaf import CloverleafGyro
 
     model = fit(simulate(cloverleaf_truth(), PAPER_BIASES, PAPER_FREQS))
     start = np.array([1.0, 1.0, 0.0])
     space = BiasSpace(["B1", "B2", "B3"], ["B1", "B2"], start, (-10.0, 10.0), V_GYRO)
-    device = SimpleNamespace(device=CloverleafGyro(seed=1))
     reg = get_registry()
     criterion = reg.criterion("degenerate", solver=reg.solver("clarabel"))
+    return model, space, SimpleNamespace(device=CloverleafGyro(seed=1)), criterion
+
+
+def test_answer_goes_back_to_the_least_measured_split() -> None:
+    """Through :func:`answer` on a fitted cloverleaf model: with a least measured split and an
+    acceptance far under what its answer's DAC code leaves, the answer is the measured bias,
+    marked as a move (the next iteration measures the local design there) and said."""
+    model, space, device, criterion = _paper_answer_setup()
     lines: list[str] = []
     where = np.array([2.04, 4.39, 0.0])
     kwargs = {"bias_step": 0.25, "last_iteration": False, "say": lines.append}
@@ -373,16 +379,10 @@ def test_an_answer_whose_modes_no_tuning_reaches_is_replaced_by_the_linearised_s
     its modes 3 times the cloverleaf's band; the model as fitted answers as before."""
     import dataclasses
 
-    from sysid_cloverleaf import CloverleafGyro
-
     from sysid_core.verdict.trust import TUNING_REACH
 
-    fitted = fit(simulate(cloverleaf_truth(), PAPER_BIASES, PAPER_FREQS))
-    start = np.array([1.0, 1.0, 0.0])
-    space = BiasSpace(["B1", "B2", "B3"], ["B1", "B2"], start, (-10.0, 10.0), V_GYRO)
-    device = SimpleNamespace(device=CloverleafGyro(seed=1))
-    reg = get_registry()
-    criterion = reg.criterion("degenerate", solver=reg.solver("clarabel"))
+    fitted, space, device, criterion = _paper_answer_setup()
+    start = space.start_bias
     lines: list[str] = []
     kwargs = {"bias_step": 0.25, "last_iteration": False, "say": lines.append}
     plain = answer(criterion, fitted, space, device, 2, **kwargs)  # type: ignore[arg-type]
