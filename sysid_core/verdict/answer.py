@@ -128,7 +128,7 @@ def answer(
             local = model
     step = _applied(result, local, model, space, device)
     limit = bias_step if local_step is None else local_step
-    band = getattr(device.device, "band_hz", None)
+    band = device.device.band_hz
     stray = beyond_tuning(
         model, step.result.frequencies_hz, space.start_bias, space.index, band, limit
     )
