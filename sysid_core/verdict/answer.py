@@ -137,7 +137,7 @@ def answer(
         say(
             f"iteration {it}: the answer [{', '.join(f'{b:.4f}' for b in step.bias)}] V puts the "
             f"modes at {' / '.join(f'{f:.6g}' for f in step.result.frequencies_hz)} Hz, beyond "
-            f"what any bias does to modes at {band[0]:.6g}-{band[1]:.6g} Hz (the device's "  # type: ignore[index]
+            f"what any bias does to modes at {band[0]:.6g}-{band[1]:.6g} Hz (the device's "
             "band): its law is carried where no sweep measured it; taking the step the law "
             "asks at this bias and measuring there"
         )
