@@ -82,7 +82,7 @@ class LeanProtocol(Protocol):
         #: this bench, and is the first band a later sweep that misses them falls back to.
         self.probe_stood = False
         #: Which electrodes are tuned: a pair, or every one (:mod:`sysid_core.run.electrodes`).
-        self.electrodes = Electrodes(ctx, self.known, lambda b, path: self._learn(b, path))
+        self.electrodes = Electrodes(ctx, self.known, self._learn)
 
     @property
     def offered(self) -> list[str] | None:  # type: ignore[override]
