@@ -18,7 +18,14 @@ import numpy as np
 
 from sysid_core.errors import ConfigError
 
-__all__ = ["MIN_POINTS", "SweepPlan", "acquisition_grid", "design_experiments", "grid"]
+__all__ = [
+    "MIN_POINTS",
+    "SweepPlan",
+    "acquisition_grid",
+    "design_experiments",
+    "fewest_points",
+    "grid",
+]
 
 #: Fewest points in any sweep: a single-bias fit has 25 unknowns (8 real equations per point),
 #: and a resonance needs several points to show its shape.
@@ -82,6 +89,16 @@ def grid(lo: float, hi: float, step: float) -> np.ndarray:
     return lo + step * np.arange(n_points(lo, hi, step))
 
 
+def fewest_points(tones: int = 1) -> int:
+    """Fewest points of a lean sweep: :data:`MIN_POINTS` in the nearest whole acquisitions.
+
+    An acquisition costs the same with one point as with all its ``tones``: 11 points with one
+    tone, 8 with eight (one acquisition), 12 with four.
+    """
+    tones = max(int(tones), 1)
+    return tones * max(1, math.floor(MIN_POINTS / tones + 0.5))
+
+
 def acquisition_grid(
     windows: Sequence[tuple[float, float]], step: float, tones: int = 1
 ) -> np.ndarray:
@@ -95,7 +112,7 @@ def acquisition_grid(
     """
     n = sum(n_points(lo, hi, step) for lo, hi in windows)
     tones = max(int(tones), 1)
-    target = tones * max(1, math.floor(max(n, MIN_POINTS) / tones + 0.5))
+    target = max(tones * math.floor(n / tones + 0.5), fewest_points(tones))
     if target == n:
         return np.concatenate([grid(lo, hi, step) for lo, hi in windows])
     if tones == 1:  # too few: evenly over the span of the windows

@@ -10,7 +10,7 @@ it measures only the experiments of the local design they lack
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -178,13 +178,14 @@ class LeanProtocol(Protocol):
                 last = self.known.items[-1].data
                 uncertainty = motion_allowance(center, point_times(last, 0), settle, ppm)
             guess = ModeGuess.of([center - split / 2, center + split / 2], bw, uncertainty)
-            if around_prediction:
-                return mode_grid(guess, self.ctx.plan, resolve=True)
+            if around_prediction:  # after the bias change to the answer
+                return mode_grid(guess, self.ctx.plan, resolve=True, cost_s=self._cost(True))
             finest = None  # a second fine window resolves what the first one's fit measured
             if seen is not None and np.all(np.isfinite(seen)):
                 narrowest = float(np.min(bw))
                 finest = FINE_STEP * max(min(narrowest, float(np.min(seen))), narrowest / 4)
-            return mode_grid(guess, self.ctx.plan, resolve=True, fine=True, finest_hz=finest)
+            plan, cost = self.ctx.plan, self._cost(False)
+            return mode_grid(guess, plan, resolve=True, fine=True, finest_hz=finest, cost_s=cost)
 
         before = len(self.known)
         band = self._band(bias, folder)
@@ -307,6 +308,11 @@ class LeanProtocol(Protocol):
         n = len(self.known)
         return f"a model of all {n} sweeps misses the verified modes by {gap * 1e3:.3g} mHz", None
 
+    def _cost(self, bias_change: bool) -> Callable[[int], float] | None:
+        """What a sweep of so many points costs on the bench clock (None: nothing says)."""
+        cost_s = self.ctx.cost_s
+        return None if cost_s is None else (lambda n: cost_s(n, bias_change))
+
     def _learn(self, bias: np.ndarray, path: Path, first: np.ndarray | None = None) -> None:
         """Measure one identification experiment where its modes should be (``first``: here).
 
@@ -329,7 +335,7 @@ class LeanProtocol(Protocol):
             first = locate if grid.size >= locate.size else grid
         elif first is None:
             assert guess is not None
-            first = mode_grid(guess, ctx.plan)
+            first = mode_grid(guess, ctx.plan, cost_s=self._cost(True))
         denser = denser_plan(locating, plan.resolution_hz).band()
         probe, probing = None, locate_plan(plan, probe_points(points))
         # the run's first look at the band, on a bench that may be quiet

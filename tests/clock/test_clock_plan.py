@@ -21,7 +21,8 @@ from sysid_core import load_model, tune
 from sysid_core.cli import main
 from sysid_core.errors import ConfigError
 from sysid_core.measure.lean import ANCHORS, RESOLVED_STEP, ModeGuess, mode_grid
-from sysid_core.measure.sweeps import MIN_POINTS, SweepPlan
+from sysid_core.measure.modegrid import shaped_grid
+from sysid_core.measure.sweeps import MIN_POINTS, SweepPlan, fewest_points
 
 PLAN = SweepPlan((4385.0, 4445.0), 0.5, 6.0, 0.05, 1.0, 0.01, 20_000)
 GOOD_LAB = {"temperature_ramp_k_per_h": 0.2, "temperature_walk_k_per_sqrt_h": 0.05}
@@ -82,9 +83,9 @@ def test_the_tone_count_is_checked() -> None:
 
 
 def test_with_tones_a_mode_grid_fills_whole_acquisitions() -> None:
-    known = ModeGuess.of([4428.0, 4432.0], [0.08, 0.08])
-    one = mode_grid(known, PLAN)
-    eight = mode_grid(known, dataclasses.replace(PLAN, tones=8))
+    known = ModeGuess.of([4428.0, 4432.0], [0.08, 0.08])  # the default shape's grids
+    one = shaped_grid(known, PLAN)
+    eight = shaped_grid(known, dataclasses.replace(PLAN, tones=8))
     assert one.size == 18  # 7 per mode, 4 anchors
     # 18 points would spill 2 into a third acquisition: 2 of the nearer anchors are dropped
     assert eight.size == 16 and set(eight) <= set(one)
@@ -92,8 +93,8 @@ def test_with_tones_a_mode_grid_fills_whole_acquisitions() -> None:
     # a verification grid around uncertain modes resolves them in one sweep when one more
     # acquisition pays for it; without tones it stays coarse (a fine sweep follows)
     uncertain = ModeGuess.of([4428.0, 4432.0], [0.08, 0.08], 0.08)
-    coarse = mode_grid(uncertain, PLAN, resolve=True)
-    fine = mode_grid(uncertain, dataclasses.replace(PLAN, tones=8), resolve=True)
+    coarse = shaped_grid(uncertain, PLAN, resolve=True)
+    fine = shaped_grid(uncertain, dataclasses.replace(PLAN, tones=8), resolve=True)
     near = lambda g: np.diff(g[np.abs(g - 4428.0) < 0.4])  # noqa: E731
     assert near(coarse).max() > RESOLVED_STEP * 0.08
     assert near(fine).max() <= RESOLVED_STEP * 0.08 + 1e-9
@@ -113,11 +114,14 @@ def test_a_mode_grid_keeps_its_floor_and_its_band_whatever_the_tones(
 ) -> None:
     plan = dataclasses.replace(PLAN, tones=tones)
     guess = ModeGuess.of([4420.0, 4420.0 + split], [bw, bw], sigma)
-    grid = mode_grid(guess, plan, resolve=resolve)
-    assert grid.size >= MIN_POINTS
+    chosen = mode_grid(guess, plan, resolve=resolve)  # whatever the shape chosen
+    assert chosen.size >= fewest_points(tones) and np.all(np.diff(chosen) > 0)
+    assert chosen[0] >= PLAN.band_hz[0] and chosen[-1] <= PLAN.band_hz[1]
+    grid = shaped_grid(guess, plan, resolve=resolve)
+    assert grid.size >= min(MIN_POINTS, fewest_points(tones))
     assert np.all(np.diff(grid) > 0)
     assert grid[0] >= PLAN.band_hz[0] and grid[-1] <= PLAN.band_hz[1]
-    one = mode_grid(guess, PLAN, resolve=resolve)
+    one = shaped_grid(guess, PLAN, resolve=resolve)
     # never more acquisitions than the one-tone grid would need, plus one to resolve
     assert -(-grid.size // tones) <= -(-one.size // tones) + 1
 

@@ -21,6 +21,7 @@ from sysid_core.measure import lean
 from sysid_core.measure.evidence import local_steps
 from sysid_core.measure.lean import ModeGuess, mode_grid, scout_grid
 from sysid_core.measure.locating import QUIET_NOISE, probe_first, probe_points
+from sysid_core.measure.modegrid import shaped_grid
 from sysid_core.measure.sweeps import MIN_POINTS, SweepPlan
 from sysid_core.run.config import ExperimentConfig, parse_config
 from sysid_core.run.pipeline import TuningRun
@@ -64,8 +65,9 @@ def files(out: Path, folder: str) -> list[str]:
 
 # ------------------------------------------------------------------ where the points go
 def test_mode_grid_is_dense_at_the_modes_and_sparse_elsewhere() -> None:
+    """The default shape (a core of 2 bandwidths, 4 anchors; ``mode_grid`` may choose another)."""
     guess = ModeGuess.of([4424.0, 4429.0], [0.1, 0.12])
-    f = mode_grid(guess, PLAN)
+    f = shaped_grid(guess, PLAN)
     assert MIN_POINTS <= f.size <= 2 * (2 * lean.MAX_HALF_POINTS + 1) + lean.ANCHORS
     assert np.all(np.diff(f) > 0) and f[0] >= 4385.0 and f[-1] <= 4445.0
     # at each mode a step under its bandwidth; far points reach refine_span / 2 beyond
@@ -77,7 +79,7 @@ def test_mode_grid_is_dense_at_the_modes_and_sparse_elsewhere() -> None:
     assert np.all(step < bw)
     assert f[0] == pytest.approx(4424.0 - 3.0) and f[-1] == pytest.approx(4429.0 + 3.0)
     # an uncertain guess spreads the same number of points wider
-    wide = mode_grid(ModeGuess.of([4424.0, 4429.0], [0.1, 0.12], 0.5), PLAN)
+    wide = shaped_grid(ModeGuess.of([4424.0, 4429.0], [0.1, 0.12], 0.5), PLAN)
     assert wide.size == f.size
     assert np.ptp(wide[(wide > 4422) & (wide < 4426)]) > np.ptp(f[(f > 4422) & (f < 4426)])
     # two degenerate modes share one grid, still at least MIN_POINTS points

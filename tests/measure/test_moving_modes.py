@@ -20,6 +20,7 @@ from sysid_core.data.schema import experiment_from_measurement, point_times
 from sysid_core.measure.evidence import WindowAssessment
 from sysid_core.measure.fitter import Fitter
 from sysid_core.measure.lean import MAX_FINE_HALF_POINTS, RESOLVED_STEP, ModeGuess, mode_grid
+from sysid_core.measure.modegrid import shaped_grid
 from sysid_core.measure.motion import (
     MOTION_PPM_PER_H,
     PREDICTION_ERROR,
@@ -72,7 +73,7 @@ def test_a_fine_grid_resolves_modes_whatever_their_uncertainty() -> None:
     bw = np.array([0.025, 0.03])
     for sigma in (0.0, 0.01, 0.03, 0.08):
         guess = ModeGuess.of([1486.7, 1487.15], bw, sigma)
-        points = mode_grid(guess, plan, resolve=True, fine=True)
+        points = shaped_grid(guess, plan, resolve=True, fine=True)
         half = guess.core_half_widths()
         for f, b, h in zip(guess.frequencies_hz, bw, half, strict=True):
             core = points[np.abs(points - f) <= h * (1 + 1e-9)]
@@ -80,7 +81,7 @@ def test_a_fine_grid_resolves_modes_whatever_their_uncertainty() -> None:
             assert np.max(np.diff(core)) <= max(RESOLVED_STEP * b, cap) * (1 + 1e-9)
             assert core.min() <= f - min(h, MAX_FINE_HALF_POINTS * RESOLVED_STEP * b) + 1e-9
         if sigma == 0.0:  # no motion: the grid of a mode known exactly, as before
-            assert points.size == mode_grid(guess, plan, resolve=True).size
+            assert points.size == shaped_grid(guess, plan, resolve=True).size
 
 
 def test_the_freshest_modes_centre_a_window_when_they_know_more() -> None:

@@ -6,9 +6,10 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sysid_core.measure import lean
+from sysid_core.measure import lean, modegrid
 from sysid_core.measure.evidence import local_steps
-from sysid_core.measure.lean import ModeGuess, mode_grid
+from sysid_core.measure.lean import ModeGuess
+from sysid_core.measure.modegrid import shaped_grid as mode_grid  # the default shape
 from sysid_core.measure.sweeps import SweepPlan
 
 PLAN = SweepPlan((2540.0, 2650.0), 0.5, 6.0, 0.05, 6.0, 0.05, 20_000)
@@ -60,11 +61,11 @@ def test_one_grid_resolves_each_mode_as_finely_with_no_more_points(
     bw = np.array([bw0, bw0 * ratio])
     f = 2595.0 + np.array([0.0, split_bw * bw0])
     guess = ModeGuess.of(f, bw, sigma_bw * bw0)
-    steps, counts = lean._core_steps(guess, lean.POINTS_PER_BANDWIDTH, lean.MAX_HALF_POINTS)
+    steps, counts = modegrid._core_steps(guess, lean.POINTS_PER_BANDWIDTH, lean.MAX_HALF_POINTS)
     points = mode_grid(guess, PLAN)
     got = local_steps(points, guess.frequencies_hz, bw)
     # points closer than a thousandth of the narrowest bandwidth are merged into one
-    # (``lean._mode_points``): that moves a step by at most that much
+    # (``modegrid._mode_points``): that moves a step by at most that much
     assert np.all(got <= steps * (1 + 1e-9) + 1e-3 * bw.min())
     separate = sum(2 * k + 1 for k in counts) + lean.ANCHORS
     assert points.size <= separate
