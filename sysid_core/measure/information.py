@@ -77,9 +77,9 @@ def mode_information(points: np.ndarray, f0: float, bw: float) -> float:
 
 def split_information(
     points: np.ndarray,
-    frequencies_hz: Sequence[float],
-    bandwidth_hz: Sequence[float],
-    uncertainty_hz: Sequence[float] = (0.0, 0.0),
+    frequencies_hz: np.ndarray | Sequence[float],
+    bandwidth_hz: np.ndarray | Sequence[float],
+    uncertainty_hz: np.ndarray | Sequence[float] = (0.0, 0.0),
 ) -> float:
     """``1 / var(f2 - f1)`` (Hz⁻²) from ``points``, expected over where the modes may be.
 
