@@ -8,10 +8,10 @@ together 6 V away. Measured before the fallback: stuck at B2 = 10 V, 5.2 Hz at t
 iterations; with it, the third iteration answers from the fit of every sweep, and the run
 leaves the limit for the true bias: 48 mHz after the fourth iteration with grids of one shape,
 99 mHz after the sixth with grids chosen by information per second (19 Hz after the fourth:
-its verification windows take another path, 1.3 mHz after the seventh). The bench has no clock: with one, the stiffness law's test leaves out the part
-that moves both modes together (a drift's), the first fit keeps the linear law (9.3 against a
-threshold of 13.3), its answer is inside the limits, and the run ends 0.84 Hz apart after 4
-iterations by another path.
+its verification windows take another path; 1.3 mHz after the seventh). The bench has no
+clock: with one, the stiffness law's test leaves out the part that moves both modes together
+(a drift's), the first fit keeps the linear law (9.3 against a threshold of 13.3), its answer
+is inside the limits, and the run ends 0.84 Hz apart after 4 iterations by another path.
 """
 
 from __future__ import annotations
