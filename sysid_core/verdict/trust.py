@@ -203,9 +203,11 @@ def unsure_unreachable(
     stands at 95 %) or for a model without a covariance. The region
     reaches down to 0 when the ellipse of the normalised stiffness's deviation holds a
     degenerate model (:func:`~sysid_core.tuning.confidence.confidence_region`): then the law's
-    uncertainty, not the gyro, keeps the modes apart.
+    uncertainty, not the gyro, keeps the modes apart. A ``quadratic`` law's region is its
+    tangent's at ``best`` (:meth:`~sysid_core.model.fitted.FittedModel.linearized`), as an
+    answer's is.
     """
-    region = confidence_region(model, best, space)
+    region = confidence_region(model.linearized(best.w), best, space)
     if region is None:
         return None
     least = float(region.split_ci_hz[0])

@@ -12,6 +12,7 @@ the first design's law, which its region does not state, and moves to measure th
 
 from __future__ import annotations
 
+import dataclasses
 from types import SimpleNamespace
 
 import numpy as np
@@ -21,6 +22,7 @@ from truths import PAPER_BIASES, PAPER_FREQS, V_GYRO, cloverleaf_truth, simulate
 
 from sysid_core import fit
 from sysid_core.errors import UnreachableTuningError
+from sysid_core.measure.sweeps import design_experiments
 from sysid_core.model.fitted import FittedModel
 from sysid_core.plugin.registry import get_registry
 from sysid_core.tuning.criteria import BiasSpace, solve_criterion
@@ -123,3 +125,37 @@ def test_only_a_model_identified_around_the_bias_concludes_the_modes_cannot_meet
     for it, local_fit, last in ((2, True, False), (1, False, False), (2, False, True)):
         with pytest.raises(UnreachableTuningError):
             step(it, local_fit, last, [])
+
+
+def test_a_quadratic_law_s_verdict_is_judged_by_its_tangent_s_region() -> None:
+    """Outside-bench gyro 842 (uncontrolled lab, 8 tones) ended with an internal error: its
+    ``auto`` law had kept the quadratic terms, and the region of its "unreachable" verdict drew
+    the quadratic model's 18 stiffness parameters into the 12 of the linear one. The cloverleaf
+    with a bias law 4 % softer per 10 V, fitted quadratic on the two-sided design, B2 limited to
+    3.9 V (its degenerate bias is at 4.4 V): the region is the tangent's at the best reachable
+    bias, and its least split is over the acceptance."""
+    base = fit(simulate(cloverleaf_truth(), PAPER_BIASES, PAPER_FREQS), bias_terms=0, order=1)
+    truth = dataclasses.replace(base, Lp=-0.04 * base.Kp / (V_GYRO**2 * 0.3), stiffness_factor=None)
+    design = design_experiments(np.zeros(2), [0, 1], 1.0, (-10.0, 10.0), two_sided=True)
+    data = simulate(_Responses(truth), design, PAPER_FREQS, noise_peak=1e-4, seed=2)
+    model = fit(data, order=1, bias_terms=0, stiffness="quadratic")
+    assert model.Lp is not None and model.stiffness_factor is not None
+    space = BiasSpace(["B1", "B2"], ["B1", "B2"], np.zeros(2), (-10.0, 3.9), V_GYRO)
+    reg = get_registry()
+    criterion = reg.criterion("degenerate", solver=reg.solver("clarabel"))
+    with pytest.raises(UnreachableTuningError) as err:
+        solve_criterion(criterion, model, space)
+    there = result_at(np.asarray(err.value.best_bias, dtype=float), space, model, "degenerate")
+    assert unsure_unreachable(model, there, space, ACCEPTANCE) is None
+
+
+class _Responses:
+    """``simulate``'s truth protocol for a FittedModel."""
+
+    def __init__(self, model: FittedModel) -> None:
+        self.model = model
+        self.electrodes = model.electrodes
+        self.structure_potential = model.structure_potential
+
+    def response(self, bias: np.ndarray, freqs: np.ndarray) -> np.ndarray:
+        return self.model.response(freqs, bias)
