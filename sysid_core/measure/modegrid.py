@@ -34,7 +34,7 @@ import numpy as np
 from sysid_core.clock.benchtime import acquisitions
 from sysid_core.measure.information import per_second, split_information
 from sysid_core.measure.motion import PREDICTION_ERROR
-from sysid_core.measure.sweeps import SweepPlan, fewest_points
+from sysid_core.measure.sweeps import MIN_POINTS, SweepPlan, fewest_points
 
 __all__ = [
     "ANCHORS",
@@ -286,10 +286,10 @@ def shaped_grid(
     ``bw / POINTS_PER_BANDWIDTH`` or ``h / MAX_HALF_POINTS``, whichever is coarser; then the
     ``shape.anchors`` far points of :func:`anchors`. Everything inside the plan's band, widened
     to hold the modes and their far points where they lie outside it
-    (:meth:`~sysid_core.measure.sweeps.SweepPlan.following`); never fewer than
-    :func:`~sysid_core.measure.sweeps.fewest_points` (``MIN_POINTS`` in whole acquisitions; the
-    step is halved and the points per mode doubled until there are: modes at the band's edge,
-    far points merged).
+    (:meth:`~sysid_core.measure.sweeps.SweepPlan.following`); never fewer than ``MIN_POINTS``,
+    or :func:`~sysid_core.measure.sweeps.fewest_points` where whole acquisitions hold fewer (8
+    with eight tones; the step is halved and the points per mode doubled until there are:
+    modes at the band's edge, far points merged).
 
     With a device that measures several tones per acquisition (``plan.tones > 1``) the grid
     is fitted to whole acquisitions: when a few points (at most half the anchors) would spill
@@ -307,7 +307,9 @@ def shaped_grid(
     """
     plan = following(plan, guess, shape.core)
     points_per_bw, max_half = POINTS_PER_BANDWIDTH, MAX_HALF_POINTS
-    fewest = fewest_points(plan.tones)
+    # MIN_POINTS, or fewer where whole acquisitions hold fewer (8 with eight tones); never more:
+    # a grid one point short of two tones' 12 would be made denser for a point that is free
+    fewest = min(MIN_POINTS, fewest_points(plan.tones))
     points = np.linspace(*plan.band_hz, fewest)
     for _ in range(6):
         candidate = _mode_points(guess, plan, points_per_bw, max_half, shape)
