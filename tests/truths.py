@@ -17,6 +17,7 @@ from sysid_cloverleaf import CloverleafParameters
 
 from sysid_core.data.schema import make_dataset
 from sysid_core.device.simulation import GyroTruth, LowPass
+from sysid_core.model.fitted import FittedModel
 
 __all__ = [
     "CLOVERLEAF",
@@ -70,8 +71,20 @@ def cloverleaf_truth(
     )
 
 
+class ModelTruth:
+    """A fitted model as ``simulate``'s truth: its response at each bias."""
+
+    def __init__(self, model: FittedModel) -> None:
+        self.model = model
+        self.electrodes = model.electrodes
+        self.structure_potential = model.structure_potential
+
+    def response(self, bias: np.ndarray, freqs: np.ndarray) -> np.ndarray:
+        return self.model.response(freqs, bias)
+
+
 def simulate(
-    truth: GyroTruth,
+    truth: GyroTruth | ModelTruth,
     biases: np.ndarray = PAPER_BIASES,
     freqs: np.ndarray = PAPER_FREQS,
     noise_rel: float = 0.0,

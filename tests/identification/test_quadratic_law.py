@@ -25,7 +25,14 @@ from sysid_core.model.fitted import FittedModel
 from sysid_core.plugin.registry import get_registry
 from sysid_core.tuning.confidence import confidence_region
 from sysid_core.tuning.criteria import BiasSpace, frequencies_from_w, solve_criterion
-from tests.truths import PAPER_BIASES, PAPER_FREQS, V_GYRO, cloverleaf_truth, simulate
+from tests.truths import (
+    PAPER_BIASES,
+    PAPER_FREQS,
+    V_GYRO,
+    ModelTruth,
+    cloverleaf_truth,
+    simulate,
+)
 
 #: A random gyro (6 electrodes, 19.3 kHz, native split 11 Hz) that the linear law leaves at
 #: 165 mHz after two iterations (runs/study-random-degenerate) and the quadratic under 2 mHz.
@@ -40,18 +47,6 @@ def truth_model() -> FittedModel:
     base = fit(simulate(cloverleaf_truth(), PAPER_BIASES, PAPER_FREQS), bias_terms=0, order=1)
     w_c = (V_GYRO - 0.0) ** 2
     return dataclasses.replace(base, Lp=-0.04 * base.Kp / (w_c * 0.3), stiffness_factor=None)
-
-
-class _Responses:
-    """``simulate``'s truth protocol for a FittedModel."""
-
-    def __init__(self, model: FittedModel) -> None:
-        self.model = model
-        self.electrodes = model.electrodes
-        self.structure_potential = model.structure_potential
-
-    def response(self, bias: np.ndarray, freqs: np.ndarray) -> np.ndarray:
-        return self.model.response(freqs, bias)
 
 
 def _space(n: int = 2) -> BiasSpace:
@@ -101,7 +96,7 @@ def _close(got: np.ndarray, want: np.ndarray, rel: float) -> None:
 
 
 def test_fit_recovers_the_quadratic_law_and_tunes_it_exactly(truth_model) -> None:
-    ds = simulate(_Responses(truth_model), TWO_SIDED, PAPER_FREQS)
+    ds = simulate(ModelTruth(truth_model), TWO_SIDED, PAPER_FREQS)
     model = fit(ds, order=1, bias_terms=0, stiffness="quadratic")
     assert model.Lp is not None and model.structure.stiffness == "quadratic"
     assert model.meta["n_parameters"] == 31 + 6
@@ -130,7 +125,7 @@ def test_fit_recovers_the_quadratic_law_and_tunes_it_exactly(truth_model) -> Non
 def test_quadratic_fit_is_stable_under_rounding_level_perturbations(truth_model, objective) -> None:
     """Data perturbed at the 1e-12 relative level (what another BLAS kernel's rounding does)
     give the same ``K_p``, ``L_p`` to 1e-6."""
-    ds = simulate(_Responses(truth_model), TWO_SIDED, PAPER_FREQS)
+    ds = simulate(ModelTruth(truth_model), TWO_SIDED, PAPER_FREQS)
     model = fit(ds, order=1, bias_terms=0, stiffness="quadratic", objective=objective)
     rng = np.random.default_rng(12)
     for _ in range(3):
@@ -148,7 +143,7 @@ def test_quadratic_fit_is_stable_under_rounding_level_perturbations(truth_model,
 def test_exact_fit_has_unit_mass_whatever_the_solver_stops_at(truth_model) -> None:
     """The scale of an exact fit is a ray of optima (M ⪰ I is an inequality): the fit is
     normalised to λ_min(M) = 1, so the truth (M = I) is recovered, not a multiple of it."""
-    ds = simulate(_Responses(truth_model), TWO_SIDED, PAPER_FREQS)
+    ds = simulate(ModelTruth(truth_model), TWO_SIDED, PAPER_FREQS)
     model = fit(ds, order=1, bias_terms=0, stiffness="quadratic", objective="minimax")
     assert np.linalg.eigvalsh(model.M).min() == pytest.approx(1.0, abs=1e-9)
     _close(model.Kp, truth_model.Kp, recovery_tol(model))
@@ -160,7 +155,7 @@ def test_a_design_that_does_not_identify_the_law_falls_back_to_linear(truth_mode
     with a FitWarning, a progress line and ``meta`` that say why."""
     design = TWO_SIDED.copy()
     design[2, 0] = 1.0 + 1e-6
-    ds = simulate(_Responses(truth_model), design, PAPER_FREQS, noise_peak=1e-4, seed=1)
+    ds = simulate(ModelTruth(truth_model), design, PAPER_FREQS, noise_peak=1e-4, seed=1)
     lines: list[str] = []
     with pytest.warns(errors.FitWarning, match="not identified"):
         model = fit(ds, order=1, bias_terms=0, stiffness="quadratic", progress=lines.append)
@@ -193,7 +188,7 @@ def test_linearization_is_the_tangent(truth_model, w0, size, sign) -> None:
 
 
 def test_quadratic_model_round_trip_and_region(tmp_path: Path, truth_model) -> None:
-    ds = simulate(_Responses(truth_model), TWO_SIDED, PAPER_FREQS, noise_peak=1e-4, seed=2)
+    ds = simulate(ModelTruth(truth_model), TWO_SIDED, PAPER_FREQS, noise_peak=1e-4, seed=2)
     model = fit(ds, order=1, bias_terms=0, stiffness="quadratic")
     assert model.stiffness_factor is not None and model.stiffness_factor.shape[0] == 6 + 12
     again = load_model(model.save(tmp_path / "q.model.nc"))
@@ -241,7 +236,7 @@ def test_auto_keeps_the_law_the_data_show(truth_model) -> None:
         kept.append(fit(ds, stiffness="auto").meta["stiffness_law"])
     assert kept.count("quadratic") <= 1
     for seed in range(5):
-        ds = simulate(_Responses(truth_model), TWO_SIDED, PAPER_FREQS, noise_peak=1e-4, seed=seed)
+        ds = simulate(ModelTruth(truth_model), TWO_SIDED, PAPER_FREQS, noise_peak=1e-4, seed=seed)
         model = fit(ds, order=1, bias_terms=0, stiffness="auto")
         assert model.meta["stiffness_law"] == "quadratic" and model.Lp is not None
         assert model.meta["law_statistic"] > model.meta["law_threshold"]

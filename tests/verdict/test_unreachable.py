@@ -18,7 +18,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 from sysid_cloverleaf import CloverleafGyro
-from truths import PAPER_BIASES, PAPER_FREQS, V_GYRO, cloverleaf_truth, simulate
+from truths import PAPER_BIASES, PAPER_FREQS, V_GYRO, ModelTruth, cloverleaf_truth, simulate
 
 from sysid_core import fit
 from sysid_core.errors import UnreachableTuningError
@@ -137,7 +137,7 @@ def test_a_quadratic_law_s_verdict_is_judged_by_its_tangent_s_region() -> None:
     base = fit(simulate(cloverleaf_truth(), PAPER_BIASES, PAPER_FREQS), bias_terms=0, order=1)
     truth = dataclasses.replace(base, Lp=-0.04 * base.Kp / (V_GYRO**2 * 0.3), stiffness_factor=None)
     design = design_experiments(np.zeros(2), [0, 1], 1.0, (-10.0, 10.0), two_sided=True)
-    data = simulate(_Responses(truth), design, PAPER_FREQS, noise_peak=1e-4, seed=2)
+    data = simulate(ModelTruth(truth), design, PAPER_FREQS, noise_peak=1e-4, seed=2)
     model = fit(data, order=1, bias_terms=0, stiffness="quadratic")
     assert model.Lp is not None and model.stiffness_factor is not None
     space = BiasSpace(["B1", "B2"], ["B1", "B2"], np.zeros(2), (-10.0, 3.9), V_GYRO)
@@ -147,15 +147,3 @@ def test_a_quadratic_law_s_verdict_is_judged_by_its_tangent_s_region() -> None:
         solve_criterion(criterion, model, space)
     there = result_at(np.asarray(err.value.best_bias, dtype=float), space, model, "degenerate")
     assert unsure_unreachable(model, there, space, ACCEPTANCE) is None
-
-
-class _Responses:
-    """``simulate``'s truth protocol for a FittedModel."""
-
-    def __init__(self, model: FittedModel) -> None:
-        self.model = model
-        self.electrodes = model.electrodes
-        self.structure_potential = model.structure_potential
-
-    def response(self, bias: np.ndarray, freqs: np.ndarray) -> np.ndarray:
-        return self.model.response(freqs, bias)
