@@ -4,7 +4,9 @@ For a few guesses of two modes (apart or near degenerate, known or uncertain), e
 ``sysid_core.measure.modegrid.SHAPES``: its points, its information about the split
 (``sysid_core.measure.information.split_information``, unit noise), and that per second of a
 bench whose settling takes 1.2 acquisitions (3 τ against 5 Q/ω), with one tone and with eight;
-the shape ``mode_grid`` chooses is marked. The table of ``docs/studies/information.md``::
+the shape ``mode_grid`` chooses (the cheapest, then the most per second) is marked. A graded
+shape differs from its even twin only where two modes' cores overlap with different steps.
+The table of ``docs/studies/information.md``::
 
     python examples/grid_information.py
 """
@@ -29,7 +31,9 @@ GUESSES = {
 
 def main() -> None:
     """Print the table."""
-    names = " | ".join(f"core {s.core:g}, {s.anchors} far" for s in SHAPES)
+    names = " | ".join(
+        f"core {s.core:g}, {s.anchors} far{', graded' if s.graded else ''}" for s in SHAPES
+    )
     print(f"| modes | tones | {names} |")
     print("|---|---|" + "---|" * len(SHAPES))
     for label, guess in GUESSES.items():

@@ -4,19 +4,19 @@ Around each predicted mode ``±(c·bw + 2σ)`` (``bw = f/Q`` its bandwidth, ``σ
 uncertainty, ``c`` the core's half-width in bandwidths) at a step of ``bw/2`` or coarser so that no
 mode gets more than ``2·MAX_HALF_POINTS + 1`` points, plus far points (anchors), half on either
 side, for what varies slowly with frequency (the feedthrough). Two modes whose cores overlap
-(near degenerate modes: every verification near the end of a run) share one grid at the finer
-of their steps: two interleaved grids would put pairs of points µHz apart.
+(near degenerate modes: every verification near the end of a run) share one grid, at the finer
+of their steps or graded (the finer step over the finer mode's core only, :func:`_one_core`):
+two interleaved grids would put pairs of points µHz apart.
 
-**The shape by information per second.** Which core and how many anchors: of the shapes of
-:data:`SHAPES`, :func:`mode_grid` measures the one whose points tell the most about the split per
-second of bench clock (:mod:`sysid_core.measure.information`): the Fisher information of the
-points about the two modal frequencies, with bandwidths, residues and feedthrough unknown,
-expected over where the modes may be, over what the sweep costs (settling after the bias change
-and its acquisitions with the device's ``tones``). A point within a bandwidth of a mode carries
-most of what any point can, and one several bandwidths out little; anchors pin the feedthrough,
-which the points near a mode cannot tell from its residue. Which shape wins depends on the
-uncertainty, the two modes' bandwidths and split, and on the tones (points that fill an
-acquisition already paid for are free).
+**The shape: the cheapest, then by information per second.** Which core, how many anchors and
+whether overlapping cores are graded: every shape of :data:`SHAPES` resolves each mode as the
+evidence asks, so :func:`mode_grid` measures the one that costs the least bench clock
+(settling, and acquisitions with the device's ``tones``) and, of equally cheap ones, the one
+whose points tell the most about the split (:mod:`sysid_core.measure.information`). Per point
+the information hardly depends on the shape, and a verification's split is known to tenths of
+a millihertz where the acceptance is one (fresh random gyros, one tone: a median of 152 dwells
+against 155 by information per second alone, ``docs/studies/information.md``). With several
+tones the points that fill an acquisition already paid for are free: the most informative win.
 
 A window around modes a sweep has just found is a **fine** grid (``mode_grid(..., fine=True)``:
 every mode resolved, whatever the tones) whose uncertainty is their motion since
@@ -39,6 +39,7 @@ from sysid_core.measure.sweeps import MIN_POINTS, SweepPlan, fewest_points
 __all__ = [
     "ANCHORS",
     "CORE_BANDWIDTHS",
+    "DENSER_STEPS",
     "FINE_STEP",
     "MAX_FINE_HALF_POINTS",
     "MAX_HALF_POINTS",
@@ -70,6 +71,10 @@ FINE_STEP = 0.75
 ANCHORS = 4
 #: A fine grid (:func:`mode_grid` with ``fine``) gives each mode at most this many points a side.
 MAX_FINE_HALF_POINTS = 12
+#: A grid short of the fewest points is made denser by ``2^(1/4)`` at a time, at most this many
+#: times (64 times denser: modes at the band's edge, their far points merged). A quarter
+#: octave, not a doubling: a one-tone grid of 9 points for a floor of 11 took 17 when doubled.
+DENSER_STEPS = 24
 
 
 @dataclass(frozen=True)
@@ -78,6 +83,9 @@ class GridShape:
 
     core: float = CORE_BANDWIDTHS
     anchors: int = ANCHORS
+    #: Two overlapping cores of different steps as one graded grid (the finer step only over
+    #: the finer mode's core) rather than one even grid at the finer step (:func:`_one_core`).
+    graded: bool = False
 
 
 #: The shapes :func:`mode_grid` chooses from; the first wins a tie. The wider core sees a
@@ -88,7 +96,9 @@ class GridShape:
 #: point to the anchors must stay clear of a fitted mode a quarter of a bandwidth off the
 #: guess with a bandwidth a fifth wider (cores of 1 and 0.5 bandwidths failed it: one tone,
 #: 413 dwells against 144, ``docs/studies/information.md``).
-SHAPES = tuple(GridShape(c, a) for c in (CORE_BANDWIDTHS, 1.5) for a in (ANCHORS, 2))
+SHAPES = tuple(
+    GridShape(c, a, g) for g in (False, True) for c in (CORE_BANDWIDTHS, 1.5) for a in (ANCHORS, 2)
+)
 
 
 @dataclass(frozen=True)
@@ -196,7 +206,7 @@ def anchors(f: np.ndarray, bw: np.ndarray, plan: SweepPlan, count: int = ANCHORS
 
 
 def _core_steps(
-    guess: ModeGuess, points_per_bw: float, max_half: int, core: float = CORE_BANDWIDTHS
+    guess: ModeGuess, points_per_bw: float, max_half: float, core: float = CORE_BANDWIDTHS
 ) -> tuple[np.ndarray, list[int]]:
     """Each mode's step ``max(bw / points_per_bw, h / max_half)`` and its points a side."""
     bw, half = guess.bandwidth_hz, guess.core_half_widths(core)
@@ -208,7 +218,7 @@ def _mode_points(
     guess: ModeGuess,
     plan: SweepPlan,
     points_per_bw: float,
-    max_half: int,
+    max_half: float,
     shape: GridShape = GridShape(),
 ) -> np.ndarray:
     """Around each mode ``±h`` at the step ``max(bw / points_per_bw, h / max_half)``.
@@ -218,32 +228,54 @@ def _mode_points(
     f, bw = guess.frequencies_hz, guess.bandwidth_hz
     steps, counts = _core_steps(guess, points_per_bw, max_half, shape.core)
     parts = [fi + si * np.arange(-k, k + 1) for fi, si, k in zip(f, steps, counts, strict=True)]
-    union = _one_core(f, steps, counts)
+    union = _one_core(f, steps, counts, shape.graded)
     if union is not None:
         parts = [union]
     points = _clip(np.concatenate([*parts, anchors(f, bw, plan, shape.anchors)]), plan.band_hz)
     return merge(points, 1e-3 * float(bw.min()))
 
 
-def _one_core(f: np.ndarray, steps: np.ndarray, counts: list[int]) -> np.ndarray | None:
+def _one_core(
+    f: np.ndarray, steps: np.ndarray, counts: list[int], graded: bool = False
+) -> np.ndarray | None:
     """The two modes' cores as one grid when they overlap, or None when they do not.
 
     Two overlapping grids of steps ``s0, s1`` interleave: points a fraction of a step apart
     (near degenerate modes: pairs a few µHz apart) resolve nothing the finer grid alone does
-    not. One grid over the union of the cores at the finer step, ``min(s0, s1)``, keeps every
-    mode's resolution; it is used when it has fewer points than the two grids together.
+    not. One grid keeps every mode's own step with fewer points, of two kinds:
+
+    * **even**: the union of the cores at the finer step, ``min(s0, s1)``;
+    * **graded**: the finer mode's core at its step, continued at the coarser mode's step as
+      far as that mode's core reaches (a random gyro's Q of 8 000 and 17 000: 11 core points
+      where the even grid takes 13). With ``graded``, when it has fewer points than the even.
+
+    Either is used only when it has fewer points than the two grids together. Each mode's step
+    within its core is never coarser than its own grid's: in the graded grid the coarser mode
+    sees the finer step inside the finer core and its own outside it.
     """
-    lo = np.asarray(f) - np.asarray(steps) * np.asarray(counts)
-    hi = np.asarray(f) + np.asarray(steps) * np.asarray(counts)
+    f, steps = np.asarray(f, dtype=float), np.asarray(steps, dtype=float)
+    lo, hi = f - steps * np.asarray(counts), f + steps * np.asarray(counts)
     step = float(np.min(steps))
     if lo[1] > hi[0] + step or not step > 0:
         return None
     start, stop = float(np.min(lo)), float(np.max(hi))
     n = math.ceil((stop - start) / step - 1e-9)
-    if n + 1 >= sum(2 * k + 1 for k in counts):
-        return None
     centre = 0.5 * (start + stop)
-    return centre + step * (np.arange(n + 1) - n / 2)
+    best = centre + step * (np.arange(n + 1) - n / 2)
+    fine = int(np.argmin(steps))
+    coarse = float(steps[1 - fine])
+    below = math.ceil((lo[fine] - start) / coarse - 1e-9)
+    above = math.ceil((stop - hi[fine]) / coarse - 1e-9)
+    if graded and below + above + 2 * counts[fine] + 1 < best.size:
+        inner = f[fine] + step * np.arange(-counts[fine], counts[fine] + 1)
+        outer = [
+            lo[fine] - coarse * np.arange(below, 0, -1),
+            hi[fine] + coarse * np.arange(1, above + 1),
+        ]
+        best = np.concatenate([outer[0], inner, outer[1]])
+    if best.size >= sum(2 * k + 1 for k in counts):
+        return None
+    return best
 
 
 def mode_grid(
@@ -256,11 +288,12 @@ def mode_grid(
 ) -> np.ndarray:
     """The points of a sweep around two modes whose frequencies are (roughly) known.
 
-    Of the grids of the shapes of :data:`SHAPES` (:func:`shaped_grid`), the one whose points
-    tell the most about the split per second of bench clock
-    (:func:`~sysid_core.measure.information.split_information` over ``cost_s(points)``, what the
-    sweep costs; without it, its acquisitions with ``plan.tones``). The first of
-    :data:`SHAPES` wins a tie.
+    Of the grids of the shapes of :data:`SHAPES` (:func:`shaped_grid`), each of which resolves
+    every mode as the evidence asks, the cheapest on the bench clock (``cost_s(points)``, what
+    the sweep costs; without it, its acquisitions with ``plan.tones``); of equally cheap ones,
+    the one whose points tell the most about the split per second
+    (:func:`~sysid_core.measure.information.split_information`). The first of :data:`SHAPES`
+    wins a tie.
     """
     scored = []
     for k, shape in enumerate(SHAPES):
@@ -268,8 +301,11 @@ def mode_grid(
         info = split_information(
             points, guess.frequencies_hz, guess.bandwidth_hz, guess.uncertainty_hz
         )
-        scored.append((per_second(info, points.size, plan.tones, cost_s), -k, points))
-    return max(scored, key=lambda s: (s[0], s[1]))[2]
+        cost = (
+            float(acquisitions(points.size, plan.tones)) if cost_s is None else cost_s(points.size)
+        )
+        scored.append((-cost, per_second(info, points.size, plan.tones, cost_s), -k, points))
+    return max(scored, key=lambda s: (s[0], s[1], s[2]))[3]
 
 
 def shaped_grid(
@@ -288,8 +324,8 @@ def shaped_grid(
     to hold the modes and their far points where they lie outside it
     (:meth:`~sysid_core.measure.sweeps.SweepPlan.following`); never fewer than ``MIN_POINTS``,
     or :func:`~sysid_core.measure.sweeps.fewest_points` where whole acquisitions hold fewer (8
-    with eight tones; the step is halved and the points per mode doubled until there are:
-    modes at the band's edge, far points merged).
+    with eight tones; the grid is made denser by a quarter octave at a time until there are,
+    :data:`DENSER_STEPS`: modes at the band's edge, far points merged).
 
     With a device that measures several tones per acquisition (``plan.tones > 1``) the grid
     is fitted to whole acquisitions: when a few points (at most half the anchors) would spill
@@ -306,17 +342,17 @@ def shaped_grid(
     resolve them.
     """
     plan = following(plan, guess, shape.core)
-    points_per_bw, max_half = POINTS_PER_BANDWIDTH, MAX_HALF_POINTS
     # MIN_POINTS, or fewer where whole acquisitions hold fewer (8 with eight tones); never more:
     # a grid one point short of two tones' 12 would be made denser for a point that is free
     fewest = min(MIN_POINTS, fewest_points(plan.tones))
     points = np.linspace(*plan.band_hz, fewest)
-    for _ in range(6):
+    for k in range(DENSER_STEPS + 1):  # denser by 2^(1/4) at a time, at most 64 times
+        dense = 2.0 ** (k / 4)
+        points_per_bw, max_half = POINTS_PER_BANDWIDTH * dense, MAX_HALF_POINTS * dense
         candidate = _mode_points(guess, plan, points_per_bw, max_half, shape)
         if candidate.size >= fewest:
             points = candidate
             break
-        points_per_bw, max_half = 2 * points_per_bw, 2 * max_half
     else:
         return points
     bw, half = guess.bandwidth_hz, guess.core_half_widths(shape.core)

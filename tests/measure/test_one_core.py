@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 from sysid_core.measure import lean, modegrid
 from sysid_core.measure.evidence import local_steps
 from sysid_core.measure.lean import ModeGuess
+from sysid_core.measure.modegrid import GridShape, shaped_grid
 from sysid_core.measure.modegrid import shaped_grid as mode_grid  # the default shape
 from sysid_core.measure.sweeps import SweepPlan
 
@@ -41,19 +42,46 @@ def test_modes_far_apart_keep_their_own_grids() -> None:
     assert core.size == 14
 
 
+def test_modes_of_different_bandwidths_take_a_graded_grid() -> None:
+    """Near degenerate modes of Q 17 000 and 8 000 (bandwidths 0.066 and 0.14 Hz at 1113 Hz).
+
+    The even grid spends the narrow mode's step over the wide mode's core: 13 core points. The
+    graded one keeps that step over the narrow mode's core and the wide mode's own step beyond
+    it: 11 points, every mode's step within its core no coarser than its own grid's. With one
+    tone (every point a dwell) the graded grid is measured.
+    """
+    guess = ModeGuess.of([1113.348, 1113.3481], [0.066, 0.14], 0.01)
+    plan = SweepPlan((1075.5, 1153.3), 0.5, 6.0, 0.05, 6.0, 0.05, 20_000)
+    even = shaped_grid(guess, plan, shape=GridShape(1.5, 2, graded=False))
+    graded = shaped_grid(guess, plan, shape=GridShape(1.5, 2, graded=True))
+    assert (_core(even, guess).size, _core(graded, guess).size) == (13, 11)
+    steps, _ = modegrid._core_steps(guess, lean.POINTS_PER_BANDWIDTH, lean.MAX_HALF_POINTS, 1.5)
+    for grid in (even, graded):
+        got = local_steps(grid, guess.frequencies_hz, guess.bandwidth_hz)
+        assert np.all(got <= steps * (1 + 1e-9))
+    # the narrow mode's step only within its core: the graded grid's largest core step is the
+    # wide mode's own
+    gaps = np.diff(_core(graded, guess))
+    np.testing.assert_allclose([gaps.min(), gaps.max()], np.sort(steps), rtol=1e-9)
+    chosen = modegrid.mode_grid(guess, plan, resolve=True, cost_s=lambda n: 1.2 + n)
+    assert chosen.size == graded.size
+
+
 @settings(max_examples=60, deadline=None)
 @given(
     split_bw=st.floats(0.0, 6.0),
     bw0=st.floats(0.02, 0.2),
     ratio=st.floats(0.5, 2.0),
     sigma_bw=st.floats(0.0, 3.0),
+    graded=st.booleans(),
 )
 def test_one_grid_resolves_each_mode_as_finely_with_no_more_points(
-    split_bw: float, bw0: float, ratio: float, sigma_bw: float
+    split_bw: float, bw0: float, ratio: float, sigma_bw: float, graded: bool
 ) -> None:
     """Whatever the split: each mode's step is no coarser than its own grid's, never more points.
 
     Found by hypothesis: modes one bandwidth apart whose grids hold two points 1.3 µHz apart.
+    The same for the graded grid (the finer step over the finer mode's core only).
 
     The reference is the two cores laid side by side (the grid before the union), each at its
     own step (``_core_steps``).
@@ -62,7 +90,7 @@ def test_one_grid_resolves_each_mode_as_finely_with_no_more_points(
     f = 2595.0 + np.array([0.0, split_bw * bw0])
     guess = ModeGuess.of(f, bw, sigma_bw * bw0)
     steps, counts = modegrid._core_steps(guess, lean.POINTS_PER_BANDWIDTH, lean.MAX_HALF_POINTS)
-    points = mode_grid(guess, PLAN)
+    points = shaped_grid(guess, PLAN, shape=GridShape(graded=graded))
     got = local_steps(points, guess.frequencies_hz, bw)
     # points closer than a thousandth of the narrowest bandwidth are merged into one
     # (``modegrid._mode_points``): that moves a step by at most that much

@@ -164,7 +164,10 @@ def test_a_run_ends_at_its_floor_and_says_why(tmp_path: Path) -> None:
     Each 16-point window measures its split to about ±9 mHz at 95 % (30 windows at its tuned
     code: σ = 4.1-4.8 mHz per component), so 12 iterations cannot show 2 mHz whatever the
     answer. The run ends saying so in ``stopped``: the floor its windows set and how many more
-    would show the acceptance; the true split at the end is under that floor.
+    would show the acceptance, and the split at the end by its forecast. The floor bounds what
+    windows could show, not the split (a run whose answers landed better ended 2.1 mHz under
+    it, at 1.55 mHz; one of the cheapest grids 1.4 mHz over it: at 1.7236, 4.2841 V the true
+    split is 5.03 mHz and the forecast 2.24): the truth is within a window's reach of the forecast.
     """
     seed = 205
     bench = {"clock": True, "seed": seed, "tones": 8, "temperature_ramp_k_per_h": 0.0}
@@ -187,4 +190,6 @@ def test_a_run_ends_at_its_floor_and_says_why(tmp_path: Path) -> None:
     assert "more windows like these" in stopped
     floor_mhz = float(re.search(r"at best under ([0-9.]+) mHz", stopped).group(1))  # type: ignore[union-attr]
     assert floor_mhz > ACCEPTANCE * 1e3
-    assert device.true_split_hz(result.bias) * 1e3 <= floor_mhz
+    reach_mhz = float(re.search(r"measures the split to ±([0-9.]+) mHz", stopped).group(1))  # type: ignore[union-attr]
+    end_mhz = float(re.search(r"the split at the end is ([0-9.]+) mHz", stopped).group(1))  # type: ignore[union-attr]
+    assert abs(device.true_split_hz(result.bias) * 1e3 - end_mhz) <= reach_mhz
