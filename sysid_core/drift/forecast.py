@@ -29,24 +29,7 @@ from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import mass_roots
 from sysid_core.tuning.confidence import split_interval
 
-__all__ = ["END_ALPHA", "interval_variance", "look_level", "split_variance", "windows_forecast"]
-
-
-#: The chance the first look at a bias passes a split over the goal; the k-th look at the same
-#: bias is allowed ``END_ALPHA / k²`` (:func:`look_level`).
-END_ALPHA = 0.05
-
-
-def look_level(looks: int) -> float:
-    """The level of the forecast's bound at the ``looks``-th window at one bias: ``1 − 5 %/k²``.
-
-    A run that verifies one code again and again tests the same split each time; at 95 % every
-    time, a code whose split is just over the goal passes at last by chance (a 26 kHz gyro's
-    code, 1.06 mHz true against 1 mHz, after 48 windows). Spent as ``α/k²``, all the looks at
-    one bias together pass such a split at most ``α π²/6`` (8 %) of the time, however many there
-    are; the first look keeps 95 %.
-    """
-    return 1.0 - END_ALPHA / max(int(looks), 1) ** 2
+__all__ = ["interval_variance", "split_variance", "windows_forecast"]
 
 
 def split_variance(own: FittedModel) -> float:

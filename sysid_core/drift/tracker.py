@@ -33,12 +33,7 @@ from scipy.stats import rice
 
 from sysid_core.clock.runclock import stamps
 from sysid_core.data.schema import requested_bias
-from sysid_core.drift.forecast import (
-    interval_variance,
-    look_level,
-    windows_forecast,
-    with_split_rate,
-)
+from sysid_core.drift.forecast import interval_variance, windows_forecast, with_split_rate
 from sysid_core.drift.policy import DriftPolicy
 from sysid_core.drift.windows import blind, least_of
 from sysid_core.errors import ModelError
@@ -323,11 +318,10 @@ class Tracker:
     def end_split(self, model: FittedModel, sweep: xr.Dataset) -> tuple[float, float] | None:
         """The split at the end of the latest window by the windows' forecast, or None.
 
-        Its upper bound and its mean (Hz): ``model`` given the split vector the windows' filter
-        predicts at the window's last time stamp, at that window's bias, with the filter's
-        variance; the bound is the Rice distribution's 95 % point at the first window at that
-        bias, and its :func:`look_level` point at the k-th. None unless ``sweep`` is the latest
-        window kept and gives a split of its own.
+        Its 95 % upper bound and its mean (Hz): ``model`` given the split vector the windows'
+        filter predicts at the window's last time stamp, at that window's bias, with the
+        filter's variance; the bound is the Rice distribution's 95 % point. None unless
+        ``sweep`` is the latest window kept and gives a split of its own.
         """
         self.at_end = None
         if not self.windows or self.windows[-1] is not sweep or self.blind[-1]:
@@ -342,10 +336,7 @@ class Tracker:
         bias = np.asarray(sweep.sel(electrode=list(model.electrodes))["bias"].values[0])
         mean = float(np.hypot(*split_vector_hz(at_end.M, at_end.stiffness(bias))))
         sigma = found.sigma_hz
-        here = requested_bias(sweep)
-        looks = sum(np.array_equal(requested_bias(w), here) for w in self.windows)
-        level = look_level(looks)
-        bound = float(rice.ppf(level, mean / sigma, scale=sigma)) if sigma > 0 else mean
+        bound = float(rice.ppf(0.95, mean / sigma, scale=sigma)) if sigma > 0 else mean
         return bound, mean
 
     def floor(self, windows: int, every_s: float) -> float | None:
