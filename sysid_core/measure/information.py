@@ -30,7 +30,7 @@ import numpy as np
 
 from sysid_core.clock.benchtime import acquisitions
 
-__all__ = ["mode_information", "per_second", "split_information"]
+__all__ = ["mode_information", "per_second", "split_information", "sweep_cost"]
 
 #: Where the modes may be, in standard deviations of the guess, and the weights (a normal
 #: distribution at five points).
@@ -100,14 +100,19 @@ def split_information(
     return total
 
 
+def sweep_cost(n_points: int, tones: int, cost_s: Callable[[int], float] | None = None) -> float:
+    """What a sweep of ``n_points`` costs: ``cost_s(n_points)``, else its acquisitions.
+
+    ``cost_s``: the bench clock's price (settling after the bias change and its acquisitions,
+    :meth:`~sysid_core.clock.runclock.RunClock.sweep_s`); without it, the acquisitions with
+    ``tones`` (a cost to compare, not a time).
+    """
+    return float(acquisitions(n_points, tones)) if cost_s is None else float(cost_s(n_points))
+
+
 def per_second(
     information: float, n_points: int, tones: int, cost_s: Callable[[int], float] | None = None
 ) -> float:
-    """``information`` per second of bench clock of a sweep of ``n_points``.
-
-    ``cost_s(n_points)``: what the sweep costs (settling after the bias change and its
-    acquisitions, :meth:`~sysid_core.clock.runclock.RunClock.sweep_s`); without it, its
-    acquisitions with ``tones`` (a cost to compare, not a time).
-    """
-    cost = float(acquisitions(n_points, tones)) if cost_s is None else float(cost_s(n_points))
+    """``information`` per second of bench clock of a sweep of ``n_points`` (:func:`sweep_cost`)."""
+    cost = sweep_cost(n_points, tones, cost_s)
     return information / cost if cost > 0 else 0.0

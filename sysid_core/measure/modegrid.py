@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sysid_core.clock.benchtime import acquisitions
-from sysid_core.measure.information import per_second, split_information
+from sysid_core.measure.information import split_information, sweep_cost
 from sysid_core.measure.motion import PREDICTION_ERROR
 from sysid_core.measure.sweeps import MIN_POINTS, SweepPlan, fewest_points
 
@@ -295,17 +295,17 @@ def mode_grid(
     (:func:`~sysid_core.measure.information.split_information`). The first of :data:`SHAPES`
     wins a tie.
     """
-    scored = []
-    for k, shape in enumerate(SHAPES):
-        points = shaped_grid(guess, plan, resolve, fine, finest_hz, shape)
-        info = split_information(
-            points, guess.frequencies_hz, guess.bandwidth_hz, guess.uncertainty_hz
-        )
-        cost = (
-            float(acquisitions(points.size, plan.tones)) if cost_s is None else cost_s(points.size)
-        )
-        scored.append((-cost, per_second(info, points.size, plan.tones, cost_s), -k, points))
-    return max(scored, key=lambda s: (s[0], s[1], s[2]))[3]
+    grids = [shaped_grid(guess, plan, resolve, fine, finest_hz, shape) for shape in SHAPES]
+    costs = [sweep_cost(g.size, plan.tones, cost_s) for g in grids]
+    cheapest: list[np.ndarray] = []  # the cheapest grids, each once, in the order of SHAPES
+    for g, cost in zip(grids, costs, strict=True):
+        if cost == min(costs) and not any(np.array_equal(g, c) for c in cheapest):
+            cheapest.append(g)
+    if len(cheapest) == 1:
+        return cheapest[0]
+    f, bw, sigma = guess.frequencies_hz, guess.bandwidth_hz, guess.uncertainty_hz
+    info = [split_information(g, f, bw, sigma) for g in cheapest]
+    return cheapest[int(np.argmax(info))]  # equal cost: the most per second; the first on a tie
 
 
 def shaped_grid(
