@@ -29,11 +29,11 @@ from pathlib import Path
 
 import numpy as np
 import xarray as xr
-from scipy.stats import rice
 
 from sysid_core.clock.runclock import stamps
 from sysid_core.data.schema import requested_bias
 from sysid_core.drift.forecast import interval_variance, windows_forecast, with_split_rate
+from sysid_core.drift.looks import rayleigh_point, split_bound
 from sysid_core.drift.policy import DriftPolicy
 from sysid_core.drift.windows import blind, least_of
 from sysid_core.errors import ModelError
@@ -50,7 +50,7 @@ from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import split_vector_hz
 from sysid_core.tuning.confidence import split_interval
 
-__all__ = ["NEAR_ACCEPTANCES", "RICE_95", "Tracker"]
+__all__ = ["NEAR_ACCEPTANCES", "Tracker"]
 
 #: Measures, saves and judges a sweep: ``(bias, frequencies, path, band)`` to ``(sweep, its
 #: single-bias model, evidence)``
@@ -61,9 +61,6 @@ Sweep = Callable[
 
 #: Earlier windows anchor the model when their split was under this many acceptances.
 NEAR_ACCEPTANCES = 10.0
-#: The 95 % point of the length of a two-component vector of mean zero, in its components'
-#: standard deviations (the Rayleigh distribution's: ``√(-2 ln 0.05)``).
-RICE_95 = float(np.sqrt(-2.0 * np.log(0.05)))
 
 
 @dataclass
@@ -106,6 +103,11 @@ class Tracker:
     forecast: SplitForecast | None = None
     #: The split the windows predicted at the end of the latest by the last :meth:`end_split`.
     at_end: SplitForecast | None = None
+    #: How many windows in a row :meth:`end_split` has judged at the latest window's bias: each
+    #: is a look at one split, held to its level (:func:`~sysid_core.drift.looks.look_level`).
+    looks: int = 0
+    #: The bias of those looks.
+    looked_at: tuple[float, ...] | None = None
 
     @classmethod
     def of(
@@ -318,10 +320,12 @@ class Tracker:
     def end_split(self, model: FittedModel, sweep: xr.Dataset) -> tuple[float, float] | None:
         """The split at the end of the latest window by the windows' forecast, or None.
 
-        Its 95 % upper bound and its mean (Hz): ``model`` given the split vector the windows'
+        Its upper bound and its mean (Hz): ``model`` given the split vector the windows'
         filter predicts at the window's last time stamp, at that window's bias, with the
-        filter's variance; the bound is the Rice distribution's 95 % point. None unless
-        ``sweep`` is the latest window kept and gives a split of its own.
+        filter's variance; the bound is the Rice distribution's point at this look's level
+        (:func:`~sysid_core.drift.looks.split_bound`: 95 % at the first look at a bias, more at
+        each later one in a row there, :attr:`looks` counts them). None unless ``sweep`` is the
+        latest window kept and gives a split of its own.
         """
         self.at_end = None
         if not self.windows or self.windows[-1] is not sweep or self.blind[-1]:
@@ -332,21 +336,24 @@ class Tracker:
             model, model, chosen, end, own_variances=self.own_variances(chosen)
         )
         self.at_end = found
+        key = tuple(np.asarray(requested_bias(sweep), dtype=float).tolist())
+        self.looks = self.looks + 1 if key == self.looked_at else 1
+        self.looked_at = key
         at_end = dataclasses.replace(model, K0=np.asarray(model.K0) + offset)
         bias = np.asarray(sweep.sel(electrode=list(model.electrodes))["bias"].values[0])
         mean = float(np.hypot(*split_vector_hz(at_end.M, at_end.stiffness(bias))))
-        sigma = found.sigma_hz
-        bound = float(rice.ppf(0.95, mean / sigma, scale=sigma)) if sigma > 0 else mean
-        return bound, mean
+        return split_bound(mean, found.sigma_hz, self.looks), mean
 
     def floor(self, windows: int, every_s: float) -> float | None:
-        """The best 95 % bound on the split that ``windows`` more windows could show (Hz).
+        """The best bound on the split that ``windows`` more windows could show (Hz).
 
         After :meth:`end_split` (None without its forecast, or when the latest window measured
         a split over ``near_hz``: its noise is not a degenerate window's): the Rice
-        distribution's 95 % point of a split vector of mean zero (every answer from now on
-        perfect) with the variance the windows' filter would hold after ``windows`` more windows
-        like the latest, one every ``every_s`` seconds, at the end of the last
+        distribution's point, at the level of the look the last of them would be
+        (:func:`~sysid_core.drift.looks.rayleigh_point`), of a split vector of mean zero (every
+        answer from now on perfect) with the variance the windows' filter would hold after
+        ``windows`` more windows like the latest, one every ``every_s`` seconds, at the end of
+        the last
         (:func:`~sysid_core.identification.splittrend.variance_after`). Over the acceptance, no
         such windows can show a tuning: their noise and the drift set a floor.
         """
@@ -354,7 +361,7 @@ class Tracker:
             return None  # a window far from degenerate modes measures a split of its own size
         half = 0.5 * float(np.ptp(stamps(self.windows[-1])))
         variance = variance_after(self.at_end, self.at_end.trend, windows, every_s, half)
-        return RICE_95 * float(np.sqrt(variance))
+        return rayleigh_point(max(self.looks, 1) + windows) * float(np.sqrt(variance))
 
     def windows_to(self, limit_hz: float, every_s: float, most: int = 10_000) -> int | None:
         """The fewest more windows whose :meth:`floor` is under ``limit_hz``, or None.
@@ -380,9 +387,12 @@ class Tracker:
 
 def noise_said(trend: TrendModel) -> str:
     """What the windows showed beyond the stated trend, in words ("" if nothing)."""
-    if trend.window_variance_scale <= 1.0:
-        return ""
-    return (
-        f" (the windows scattering {np.sqrt(trend.window_variance_scale):.2g} times what "
-        "their fits state)"
-    )
+    said = []
+    if trend.window_variance_scale > 1.0:
+        said.append(
+            f"the windows scattering {np.sqrt(trend.window_variance_scale):.2g} times what "
+            "their fits state"
+        )
+    if np.isfinite(trend.rate_change_s):
+        said.append(f"its rate changing within about {trend.rate_change_s / 60:.2g} min")
+    return f" ({'; '.join(said)})" if said else ""

@@ -19,7 +19,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sysid_core import tune
-from sysid_core.drift.tracker import RICE_95, Tracker
+from sysid_core.drift.looks import rayleigh_point
+from sysid_core.drift.tracker import Tracker
 from sysid_core.identification.splittrend import (
     LAB_TREND,
     TrendModel,
@@ -33,9 +34,9 @@ ACCEPTANCE = 0.002
 
 
 def test_rayleigh_95_point() -> None:
-    """A zero-mean vector whose components have σ = 1 is under RICE_95 95 % of the time."""
-    assert RICE_95 == pytest.approx(2.4477, abs=1e-4)
-    assert 1 - np.exp(-(RICE_95**2) / 2) == pytest.approx(0.95)
+    """A zero-mean vector whose components have σ = 1 is under this point 95 % of the time."""
+    assert rayleigh_point(1) == pytest.approx(2.4477, abs=1e-4)
+    assert 1 - np.exp(-(rayleigh_point(1) ** 2) / 2) == pytest.approx(0.95)
 
 
 def test_averaging_limit() -> None:
@@ -193,3 +194,15 @@ def test_a_run_ends_at_its_floor_and_says_why(tmp_path: Path) -> None:
     reach_mhz = float(re.search(r"measures the split to ±([0-9.]+) mHz", stopped).group(1))  # type: ignore[union-attr]
     end_mhz = float(re.search(r"the split at the end is ([0-9.]+) mHz", stopped).group(1))  # type: ignore[union-attr]
     assert abs(device.true_split_hz(result.bias) * 1e3 - end_mhz) <= reach_mhz
+
+
+def test_the_floor_is_held_to_the_level_of_its_look() -> None:
+    """A 10th look in a row at one bias is held tighter than the first (:mod:`.looks`)."""
+    tracker = _tracker(n_windows=24, sigma_hz=0.004)
+    first = tracker.floor(0, 4.0)
+    tracker.looks = 10
+    later = tracker.floor(0, 4.0)
+    assert first is not None and later is not None
+    assert later / first == pytest.approx(rayleigh_point(10) / rayleigh_point(1))
+    variance = tracker.at_end.variance_hz2  # type: ignore[union-attr]
+    assert first == pytest.approx(rayleigh_point(1) * np.sqrt(variance), rel=1e-9)
