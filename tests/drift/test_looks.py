@@ -9,16 +9,21 @@ constant split, windows of one noise), so the only error is the one the looks ad
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import numpy as np
 import pytest
+import xarray as xr
 from hypothesis import given
 from hypothesis import strategies as st
 from scipy.stats import rice
 
+from sysid_core.drift import tracker as tracker_module
 from sysid_core.drift.looks import END_LEVEL, look_level, rayleigh_point, split_bound
-from sysid_core.identification.splittrend import LAB_TREND, forecast
+from sysid_core.drift.tracker import Tracker
+from sysid_core.identification.splittrend import LAB_TREND, SplitForecast, forecast
+from sysid_core.model.modal import split_vector_hz
 
 MHZ = 1e-3
 GOAL = 1.0 * MHZ
@@ -95,3 +100,52 @@ def test_a_split_well_under_the_goal_still_passes() -> None:
     share, looks = _passed(0.4 * MHZ, spent=True, draws=1000, seed=12)
     assert share == 1.0
     assert looks <= 8  # measured 5 (3 with every look at 95 %)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Gyro:
+    """What :meth:`Tracker.end_split` reads of a model: a 1 kHz gyro split by 0.6 mHz."""
+
+    K0: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.diag((2 * np.pi * np.array([1000.0, 1000.0006])) ** 2)
+    )
+    M: np.ndarray = dataclasses.field(default_factory=lambda: np.eye(2))
+    electrodes: tuple[str, ...] = ("B1",)
+    stiffness_factor: None = None  # no split interval of its own
+
+    def stiffness(self, bias: np.ndarray) -> np.ndarray:
+        return self.K0
+
+    def split_hz(self, bias: object) -> float:
+        return float(np.hypot(*split_vector_hz(self.M, self.K0)))
+
+
+def _window(bias: float, t: float) -> xr.Dataset:
+    return xr.Dataset(
+        {"time_s": ("frequency", [t, t + 1.0]), "bias": (("experiment", "electrode"), [[bias]])},
+        coords={"electrode": ["B1"]},
+        attrs={"requested_bias": [bias]},
+    )
+
+
+def test_the_tracker_counts_looks_in_a_row_at_one_bias(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The bound tightens with each look at one bias and starts again at a new one."""
+    sigma = 0.2 * MHZ
+    found = SplitForecast(np.zeros(2), sigma**2, np.zeros(2), 0.0, 1)
+    monkeypatch.setattr(
+        tracker_module, "windows_forecast", lambda *a, **k: (np.zeros((2, 2)), found)
+    )
+    gyro, tracker = _Gyro(), Tracker(near_hz=10 * GOAL)
+    mean = float(np.hypot(*split_vector_hz(gyro.M, gyro.K0)))
+    bounds = []
+    for k, bias in enumerate([0.25, 0.25, 0.25, 0.5]):
+        window = _window(bias, 20.0 * k)
+        tracker.refreshed(window, 0.6 * MHZ, gyro)  # type: ignore[arg-type]
+        end = tracker.end_split(gyro, window)  # type: ignore[arg-type]
+        assert end is not None and end[1] == pytest.approx(mean)
+        bounds.append((tracker.looks, end[0]))
+    assert [looks for looks, _ in bounds] == [1, 2, 3, 1]
+    for looks, bound in bounds:
+        assert bound == pytest.approx(split_bound(mean, sigma, looks))
+    assert bounds[0][1] < bounds[1][1] < bounds[2][1]
+    assert bounds[3][1] == pytest.approx(bounds[0][1])
