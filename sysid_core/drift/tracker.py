@@ -366,16 +366,18 @@ class Tracker:
     def windows_to(self, limit_hz: float, every_s: float, most: int = 10_000) -> int | None:
         """The fewest more windows whose :meth:`floor` is under ``limit_hz``, or None.
 
-        None without a floor, or when ``most`` windows would not do (the bound falls
-        monotonically with the windows, so a bisection finds the number).
+        None without a floor, or when no number up to ``most`` would do. The bound falls with
+        the windows, then may rise (the variance stops falling where the drift ages them, each
+        look's level climbs): doubling finds a number under the limit, bisection the fewest.
         """
         floor = self.floor(0, every_s)
         if floor is None or floor <= limit_hz:
             return None if floor is None else 0
-        top = self.floor(most, every_s)
-        if top is None or top > limit_hz:
-            return None
-        lo, hi = 0, most  # floor(lo) > limit >= floor(hi)
+        lo, hi = 0, 1  # floor(lo) > limit
+        while (self.floor(hi, every_s) or 0.0) > limit_hz:
+            if hi >= most:
+                return None
+            lo, hi = hi, min(2 * hi, most)
         while hi - lo > 1:
             mid = (lo + hi) // 2
             if (self.floor(mid, every_s) or 0.0) > limit_hz:

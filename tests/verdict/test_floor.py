@@ -206,3 +206,21 @@ def test_the_floor_is_held_to_the_level_of_its_look() -> None:
     assert later / first == pytest.approx(rayleigh_point(10) / rayleigh_point(1))
     variance = tracker.at_end.variance_hz2  # type: ignore[union-attr]
     assert first == pytest.approx(rayleigh_point(1) * np.sqrt(variance), rel=1e-9)
+
+
+def test_the_fewest_windows_are_found_where_the_floor_falls_then_rises() -> None:
+    """With a rate that changes in a minute the variance stops falling while each look's level
+    climbs: the floor has a least value, and the fewest windows under a limit just over it are
+    found although the floor at the most windows searched is over the limit."""
+    tracker = _tracker(n_windows=4, sigma_hz=0.004)
+    times = 4.0 * np.arange(4)
+    trend = TrendModel(3e-5, 60.0, 0.0, 2e-3)
+    tracker.at_end = forecast(times, np.zeros((4, 2)), np.full(4, 0.004**2), times[-1] + 1, trend)
+    floors = np.array([tracker.floor(n, 4.0) for n in range(200)], dtype=float)
+    least = int(np.argmin(floors))
+    assert 0 < least < 199 and floors[-1] > floors[least]
+    limit = floors[least] + 0.25 * (floors[0] - floors[least])
+    assert floors[-1] > limit
+    fewest = int(np.flatnonzero(floors <= limit)[0])
+    assert tracker.windows_to(limit, 4.0, most=199) == fewest
+    assert tracker.windows_to(floors[least] * 0.99, 4.0, most=199) is None
