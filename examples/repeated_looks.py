@@ -21,29 +21,18 @@ import numpy as np
 from scipy.stats import rice
 
 from sysid_core.drift.looks import look_level
-from sysid_core.identification.splittrend import LAB_TREND, forecast
+from sysid_core.identification.splittrend import LAB_TREND, forecast_weights
 
 MHZ = 1e-3
 
 
 def weights(looks: int, noise_hz: float) -> tuple[list[np.ndarray], np.ndarray]:
-    """The forecast at each look as weights on the windows so far, and its σ per component.
-
-    The filter is linear in what the windows read, so one pass of unit readings gives the
-    forecast of every draw.
-    """
+    """The forecast at each look as weights on the windows so far, and its σ per component."""
     t = np.cumsum(np.full(looks, 15.0))
-    out, sigmas = [], []
-    for k in range(1, looks + 1):
-        unit, w = np.zeros((k, 2)), np.zeros(k)
-        for i in range(k):
-            unit[:] = 0.0
-            unit[i, 0] = 1.0
-            found = forecast(t[:k], unit, [noise_hz**2] * k, t[k - 1], LAB_TREND)
-            w[i] = found.vector_hz[0]
-        out.append(w)
-        sigmas.append(found.sigma_hz)
-    return out, np.array(sigmas)
+    found = [
+        forecast_weights(t[:k], [noise_hz**2] * k, t[k - 1], LAB_TREND) for k in range(1, looks + 1)
+    ]
+    return [w for w, _ in found], np.array([sigma for _, sigma in found])
 
 
 def passes(

@@ -11,6 +11,9 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import importlib.util
+from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 import pytest
@@ -22,7 +25,7 @@ from scipy.stats import rice
 from sysid_core.drift import tracker as tracker_module
 from sysid_core.drift.looks import END_LEVEL, look_level, rayleigh_point, split_bound
 from sysid_core.drift.tracker import Tracker
-from sysid_core.identification.splittrend import LAB_TREND, SplitForecast, forecast
+from sysid_core.identification.splittrend import SplitForecast
 from sysid_core.model.modal import split_vector_hz
 
 MHZ = 1e-3
@@ -49,42 +52,29 @@ def test_looks_are_counted_from_one() -> None:
         look_level(0)
 
 
-@functools.cache
-def _weights() -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
-    """The clock (a window every 15 s), the filter's forecast at each look as weights on the
-    windows so far, and its σ.
+def _study() -> ModuleType:
+    """``examples/repeated_looks.py``, whose table docs/studies/repeated-looks.md shows."""
+    path = Path(__file__).resolve().parents[2] / "examples" / "repeated_looks.py"
+    spec = importlib.util.spec_from_file_location("repeated_looks", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
-    The filter is linear in what the windows read (its prior's means are zero), so the
-    forecast at the ``k``-th window is ``w_k @ y[:k]`` for every draw of ``y`` on one clock.
-    """
-    t = np.cumsum(np.full(LOOKS, 15.0))
-    weights, sigmas = [], []
-    for k in range(1, t.size + 1):
-        unit = np.zeros((k, 2))
-        w = np.zeros(k)
-        for i in range(k):
-            unit[:] = 0.0
-            unit[i, 0] = 1.0
-            found = forecast(t[:k], unit, [SIGMA**2] * k, t[k - 1], LAB_TREND)
-            w[i] = found.vector_hz[0]
-        weights.append(w)
-        sigmas.append(found.sigma_hz)
-    return t, weights, np.array(sigmas)
+
+STUDY = _study()
+
+
+@functools.cache
+def _weights() -> tuple[list[np.ndarray], np.ndarray]:
+    """The filter's forecast at each look (a window every 15 s) as weights, and its σ."""
+    return STUDY.weights(LOOKS, SIGMA)  # type: ignore[no-any-return]
 
 
 def _passed(truth_hz: float, spent: bool, draws: int, seed: int) -> tuple[float, float]:
     """The share of runs that pass within :data:`LOOKS` looks, and their median looks."""
-    rng = np.random.default_rng(seed)
-    _, weights, sigmas = _weights()
-    y = np.array([truth_hz, 0.0]) + rng.normal(0.0, SIGMA, (draws, LOOKS, 2))
-    first = np.full(draws, np.inf)
-    for k in range(LOOKS, 0, -1):  # the earliest look that passes wins
-        split = np.hypot(*np.einsum("i,dic->cd", weights[k - 1], y[:, :k]))
-        level = look_level(k if spent else 1)
-        bound = rice.ppf(1.0 - level, split / sigmas[k - 1], scale=sigmas[k - 1])
-        first[bound < GOAL] = k
-    passed = np.isfinite(first)
-    return float(passed.mean()), float(np.median(first[passed])) if passed.any() else np.inf
+    w, sigma = _weights()
+    return STUDY.passes(truth_hz, spent, draws, seed, w, sigma, SIGMA, GOAL)  # type: ignore[no-any-return]
 
 
 @pytest.mark.parametrize("truth", [1.0, 1.064])

@@ -139,3 +139,21 @@ def test_a_negative_or_nan_parameter_is_refused() -> None:
         TrendModel(-1.0, 1.0, 0.0, 1.0)
     with pytest.raises(ValueError, match="model_error_hz"):
         TrendModel(1.0, 1.0, 0.0, float("nan"))
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(1, 12), st.integers(0, 10_000))
+def test_the_forecast_is_its_weights_on_what_the_windows_read(n: int, seed: int) -> None:
+    """The filter is linear in the windows' vectors: its weights give every draw's forecast."""
+    from sysid_core.identification.splittrend import forecast_weights
+
+    rng = np.random.default_rng(seed)
+    t = np.sort(rng.uniform(0.0, 600.0, n))
+    variances = rng.uniform(0.2, 2.0, n) * MHZ**2
+    at = t[-1] + rng.uniform(0.0, 60.0)
+    weights, sigma = forecast_weights(t, variances, at, LAB_TREND)
+    y = rng.normal(0.0, 3 * MHZ, (n, 2))
+    found = forecast(t, y, variances, at, LAB_TREND)
+    # to the diffuse prior's millionth: its variance scales with what the windows read
+    assert weights @ y == pytest.approx(found.vector_hz, abs=1e-5 * float(np.abs(y).max()))
+    assert sigma == pytest.approx(found.sigma_hz, rel=1e-5)
