@@ -21,7 +21,7 @@ the edges of their ranges (``λ = 1``, ``1/τ_r = 0``), whose statistic is then 
 ``¼ χ²₀ + ½ χ²₁ + ¼ χ²₂`` (Self & Liang 1987), critical value :data:`LR_CRITICAL`. Measured
 (docs/studies/repeated-looks.md): the 247 windows of a 24 kHz gyro verified over 12 minutes
 of an uncontrolled lab (true split 7.9 mHz) give twice the log-likelihood ratio 332 at
-``τ_r`` = 1 min, and the forecast at the last goes from 0.40 mHz, bound 1.73 (under the
+``τ_r`` = 1 min, and the forecast at the last goes from 0.42 mHz, bound 1.52 (under the
 acceptance of 2 mHz: the run converged there) to 3.6 mHz, bound 5.1; the 50 windows of a
 26 kHz gyro verified in a good lab (a constant split) keep the stated ``τ_r = ∞``. Where the
 windows sit at a new code each, what the model's law misses between the codes reads as a change
