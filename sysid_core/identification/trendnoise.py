@@ -25,7 +25,7 @@ of an uncontrolled lab (true split 7.9 mHz) give twice the log-likelihood ratio 
 acceptance of 2 mHz: the run converged there) to 3.6 mHz, bound 5.1; the 50 windows of a
 26 kHz gyro verified in a good lab (a constant split) keep the stated ``τ_r = ∞``. Where the
 windows sit at a new code each, what the model's law misses between the codes reads as a change
-of pace too: a gyro of the outside bench's good lab chose ``τ_r`` = 1 h and verified 113 times
+of pace too: a gyro of the outside bench's good lab chose ``τ_r`` = 4 h and verified 113 times
 instead of 55 (0.17 mHz true at the end; the study).
 
 A wander of the split's level (``q_s``) estimated the same way was tried and not kept
