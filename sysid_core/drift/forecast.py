@@ -30,7 +30,7 @@ from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import mass_roots
 from sysid_core.tuning.confidence import split_interval
 
-__all__ = ["interval_variance", "pooled_by_bias", "split_variance", "windows_forecast"]
+__all__ = ["bias_key", "interval_variance", "pooled_by_bias", "split_variance", "windows_forecast"]
 
 
 def split_variance(own: FittedModel) -> float:
@@ -93,6 +93,11 @@ def windows_forecast(
     return _offset_to(base, moved, found.vector_hz, scale), found
 
 
+def bias_key(sweep: xr.Dataset) -> tuple[float, ...]:
+    """The bias a window was requested at, as a key: windows at one DAC code share it."""
+    return tuple(np.asarray(requested_bias(sweep), dtype=float).tolist())
+
+
 def pooled_by_bias(sweeps: Sequence[xr.Dataset], variances: Sequence[float]) -> list[float]:
     """Each window's variance, the median of those of the windows at its bias.
 
@@ -101,13 +106,10 @@ def pooled_by_bias(sweeps: Sequence[xr.Dataset], variances: Sequence[float]) -> 
     at, so a window that reads the split low states a small variance too, and a filter that
     weights each window by its own variance leans on the low readings. Windows measured at one
     bias (one DAC code verified again) measure one split with one design: their noise is one,
-    and its estimate the median of theirs. Measured on gyro 749 of
-    docs/studies/repeated-looks.md (48 windows at one code, true split 1.064 mHz): the window
-    that read 0.29 mHz stated 0.19 mHz per component against their median of 0.53, and alone
-    moved the filter's bound from 1.13 to 0.93 mHz, under the acceptance of 1 mHz (pooled:
-    1.12).
+    and its estimate the median of theirs (robust to the few windows whose fit went astray).
+    docs/studies/repeated-looks.md measures both on a run's windows.
     """
-    keys = [tuple(np.asarray(requested_bias(sweep), dtype=float).tolist()) for sweep in sweeps]
+    keys = [bias_key(sweep) for sweep in sweeps]
     groups: dict[tuple[float, ...], list[float]] = {}
     for key, variance in zip(keys, variances, strict=True):
         groups.setdefault(key, []).append(float(variance))

@@ -7,8 +7,7 @@ again at one split on the goal (the DAC code it cannot improve on, verified agai
 sooner or later, because every look is another chance for the noise to fall low. Measured on
 the filter's own estimator (windows of one noise, 0.35 of the goal per component, one every
 15 s, a split vector of fixed length; docs/studies/repeated-looks.md): 100 looks at 95 % each
-pass a split on the goal 50 % of the time, one 6.4 % over it 21 % (gyro 749 of that study did:
-53 looks, 1.064 mHz true, acceptance 1 mHz).
+pass a split on the goal 50 % of the time, one 6.4 % over it 21 %.
 
 So the ``k``-th look in a row at one bias is held to the level :func:`look_level`
 (``5 % / (1 + ln k)²``): the first at 95 %, the second at 98.3 %, the tenth at 99.5 %.
@@ -17,9 +16,8 @@ chances they add grow with the logarithm of the number of windows, not with the 
 looks, so the level is spent over ``ln k``. On the same estimator: 5.2 % of runs pass a split on
 the goal in 100 looks, 2.0 % one 6.4 % over it; a split at 0.7 of the goal passes at a median
 20th look instead of the 7th, one at 0.4 at the 5th instead of the 3rd. A new bias is a new
-split, and its first look is at 95 % again: counted over the whole run instead, a gyro whose
-verdict pools windows at codes that change every few iterations ran past an hour where it had
-converged in 22 minutes at a third of the acceptance.
+split, and its first look is at 95 % again (the study measures the other count, every look of
+a run, and what it costs a run that pools its windows at codes that keep changing).
 """
 
 from __future__ import annotations

@@ -32,7 +32,12 @@ import xarray as xr
 
 from sysid_core.clock.runclock import stamps
 from sysid_core.data.schema import requested_bias
-from sysid_core.drift.forecast import interval_variance, windows_forecast, with_split_rate
+from sysid_core.drift.forecast import (
+    bias_key,
+    interval_variance,
+    windows_forecast,
+    with_split_rate,
+)
 from sysid_core.drift.looks import rayleigh_point, split_bound
 from sysid_core.drift.policy import DriftPolicy
 from sysid_core.drift.windows import blind, least_of
@@ -103,10 +108,9 @@ class Tracker:
     forecast: SplitForecast | None = None
     #: The split the windows predicted at the end of the latest by the last :meth:`end_split`.
     at_end: SplitForecast | None = None
-    #: How many windows in a row :meth:`end_split` has judged at the latest window's bias: each
-    #: is a look at one split, held to its level (:func:`~sysid_core.drift.looks.look_level`).
+    #: How many windows in a row :meth:`end_split` has judged at one bias (:attr:`looked_at`):
+    #: each a look at one split, held to its level (:func:`~sysid_core.drift.looks.look_level`).
     looks: int = 0
-    #: The bias of those looks.
     looked_at: tuple[float, ...] | None = None
 
     @classmethod
@@ -336,7 +340,7 @@ class Tracker:
             model, model, chosen, end, own_variances=self.own_variances(chosen)
         )
         self.at_end = found
-        key = tuple(np.asarray(requested_bias(sweep), dtype=float).tolist())
+        key = bias_key(sweep)
         self.looks = self.looks + 1 if key == self.looked_at else 1
         self.looked_at = key
         at_end = dataclasses.replace(model, K0=np.asarray(model.K0) + offset)
@@ -348,14 +352,11 @@ class Tracker:
         """The best bound on the split that ``windows`` more windows could show (Hz).
 
         After :meth:`end_split` (None without its forecast, or when the latest window measured
-        a split over ``near_hz``: its noise is not a degenerate window's): the Rice
-        distribution's point, at the level of the look the last of them would be
-        (:func:`~sysid_core.drift.looks.rayleigh_point`), of a split vector of mean zero (every
-        answer from now on perfect) with the variance the windows' filter would hold after
-        ``windows`` more windows like the latest, one every ``every_s`` seconds, at the end of
-        the last
-        (:func:`~sysid_core.identification.splittrend.variance_after`). Over the acceptance, no
-        such windows can show a tuning: their noise and the drift set a floor.
+        a split over ``near_hz``: its noise is not a degenerate window's): the point, at the
+        level of the look the last of them would be (``looks.rayleigh_point``), of a zero split
+        vector (every answer from now on perfect) with the variance the filter would hold after
+        ``windows`` more windows like the latest, one every ``every_s`` s, at the end of the last
+        (``splittrend.variance_after``); over the acceptance, the bench sets the floor.
         """
         if self.at_end is None or not self.windows or self.splits[-1] > self.near_hz:
             return None  # a window far from degenerate modes measures a split of its own size
@@ -366,9 +367,8 @@ class Tracker:
     def windows_to(self, limit_hz: float, every_s: float, most: int = 10_000) -> int | None:
         """The fewest more windows whose :meth:`floor` is under ``limit_hz``, or None.
 
-        None without a floor, or when no number up to ``most`` would do. The bound falls with
-        the windows, then may rise (the variance stops falling where the drift ages them, each
-        look's level climbs): doubling finds a number under the limit, bisection the fewest.
+        None without a floor, or none up to ``most``. The bound falls with the windows, then may
+        rise (the drift ages them, each look's level climbs): doubling, then bisection.
         """
         floor = self.floor(0, every_s)
         if floor is None or floor <= limit_hz:

@@ -30,7 +30,7 @@ from sysid_core.model.modal import split_vector_hz
 
 MHZ = 1e-3
 GOAL = 1.0 * MHZ
-SIGMA = 0.35 * MHZ  # each window's noise per component (gyro 749's windows: 0.2-0.6 mHz)
+SIGMA = 0.35 * MHZ  # each window's noise per component: a third of the goal, as at a DAC floor
 LOOKS = 40
 
 
