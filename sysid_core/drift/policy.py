@@ -20,8 +20,11 @@ not run policies: the values ``common``, ``offsets`` and ``trend`` are refused w
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Literal
+
+from sysid_core.identification.splittrend import LAB_TREND, TrendModel
 
 __all__ = ["DRIFT_VALUES", "REMOVED", "DriftPolicy"]
 
@@ -45,14 +48,23 @@ Tracks = Literal["on a clock", "always", "never"]
 
 @dataclass(frozen=True)
 class DriftPolicy:
-    """What ``[model] drift`` asks of a run (see the module)."""
+    """What ``[model] drift`` asks of a run (see the module).
+
+    ``trend``: how a tracking run's forecast takes the split to move
+    (:data:`~sysid_core.identification.splittrend.LAB_TREND`, with the lab's own prior on the
+    split's rate where ``[model] drift_split_hz_per_h`` sets it).
+    """
 
     value: str
     tracks: Tracks
+    trend: TrendModel = LAB_TREND
 
     @classmethod
-    def parse(cls, value: str) -> DriftPolicy:
+    def parse(cls, value: str, split_rate_hz_per_h: float | None = None) -> DriftPolicy:
         """The policy of ``value`` (one of :data:`DRIFT_VALUES`).
+
+        ``split_rate_hz_per_h``: the prior standard deviation of each component of the split's
+        rate (Hz/h) in place of the stated trend's (None: :data:`LAB_TREND`'s).
 
         Raises
         ------
@@ -66,7 +78,10 @@ class DriftPolicy:
         tracks: Tracks = (
             "on a clock" if value == "auto" else "always" if value == "track" else "never"
         )
-        return cls(value, tracks)
+        trend = LAB_TREND
+        if split_rate_hz_per_h is not None:
+            trend = dataclasses.replace(LAB_TREND, rate_hz_per_s=split_rate_hz_per_h / 3600.0)
+        return cls(value, tracks, trend)
 
     @property
     def may_track(self) -> bool:

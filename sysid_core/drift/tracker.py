@@ -45,10 +45,12 @@ from sysid_core.errors import ModelError
 from sysid_core.identification.anchor import anchor
 from sysid_core.identification.drift import OffsetDrift, offset_drift
 from sysid_core.identification.splittrend import (
+    LAB_TREND,
     SplitForecast,
     TrendModel,
     variance_after,
 )
+from sysid_core.identification.trendnoise import noise_said
 from sysid_core.measure.evidence import WindowAssessment
 from sysid_core.measure.verification import Verification
 from sysid_core.model.fitted import FittedModel
@@ -82,12 +84,15 @@ class Tracker:
         Earlier windows anchor the model only if they measured a split under this.
     keep : int
         How many of the latest verified windows anchor the model.
+    trend : TrendModel
+        How the forecast takes the split to move (the drift policy's).
     """
 
     settle_s: float = 0.0
     settling: Callable[[FittedModel | None], float] | None = None
     near_hz: float = float("inf")
     keep: int = 4
+    trend: TrendModel = LAB_TREND
     windows: list[xr.Dataset] = field(default_factory=list)
     #: Each window's split as near degenerate modes as its fit allows (``least_split``,
     #: :mod:`sysid_core.drift.windows`).
@@ -128,7 +133,7 @@ class Tracker:
         """
         if not drift.may_track:
             return None
-        return cls(settling=settling, near_hz=NEAR_ACCEPTANCES * acceptance_hz)
+        return cls(settling=settling, near_hz=NEAR_ACCEPTANCES * acceptance_hz, trend=drift.trend)
 
     def learned(self, ver: Verification) -> None:
         """Keep the verification's last window if it verified a split at known times.
@@ -257,7 +262,7 @@ class Tracker:
         self.forecast = None
         if chosen_own:
             offset, self.forecast = windows_forecast(
-                model, moved, chosen_own, at, own_variances=self.own_variances(chosen_own)
+                model, moved, chosen_own, at, self.trend, self.own_variances(chosen_own)
             )
             moved = dataclasses.replace(moved, K0=np.asarray(moved.K0) + offset)
             span = np.concatenate([stamps(w) for w, _ in chosen_own])
@@ -337,7 +342,7 @@ class Tracker:
         chosen, _ = self.filtered()
         end = float(stamps(sweep).max())
         offset, found = windows_forecast(
-            model, model, chosen, end, own_variances=self.own_variances(chosen)
+            model, model, chosen, end, self.trend, self.own_variances(chosen)
         )
         self.at_end = found
         key = bias_key(sweep)
@@ -385,16 +390,3 @@ class Tracker:
             else:
                 hi = mid
         return hi
-
-
-def noise_said(trend: TrendModel) -> str:
-    """What the windows showed beyond the stated trend, in words ("" if nothing)."""
-    said = []
-    if trend.window_variance_scale > 1.0:
-        said.append(
-            f"the windows scattering {np.sqrt(trend.window_variance_scale):.2g} times what "
-            "their fits state"
-        )
-    if np.isfinite(trend.rate_change_s):
-        said.append(f"its rate changing within about {trend.rate_change_s / 60:.2g} min")
-    return f" ({'; '.join(said)})" if said else ""

@@ -40,7 +40,7 @@ from scipy.stats import chi2
 
 from sysid_core.identification.splittrend import TrendModel, log_likelihood
 
-__all__ = ["LR_CRITICAL", "RATE_CHANGES_S", "SCALES", "fitted_trend"]
+__all__ = ["LR_CRITICAL", "RATE_CHANGES_S", "SCALES", "fitted_trend", "noise_said"]
 
 #: The 95 % point of twice the log-likelihood ratio for two parameters each on the edge of its
 #: range: ``½ P(χ²₁ > c) + ¼ P(χ²₂ > c) = 0.05`` (4.23).
@@ -96,3 +96,16 @@ def fitted_trend(
     return dataclasses.replace(
         model, window_variance_scale=float(scales[j]), rate_change_s=float(changes[i])
     )
+
+
+def noise_said(trend: TrendModel) -> str:
+    """What the windows showed beyond the stated trend, in words ("" if nothing)."""
+    said = []
+    if trend.window_variance_scale > 1.0:
+        said.append(
+            f"the windows scattering {np.sqrt(trend.window_variance_scale):.2g} times what "
+            "their fits state"
+        )
+    if np.isfinite(trend.rate_change_s):
+        said.append(f"its rate changing within about {trend.rate_change_s / 60:.2g} min")
+    return f" ({'; '.join(said)})" if said else ""

@@ -78,12 +78,16 @@ class ModelConfig(_Strict):
     bias_terms: int = DEFAULT_BIAS_TERMS
     stiffness: str = DEFAULT_STIFFNESS
     drift: Literal["auto", "none", "track"] = "auto"
+    drift_split_hz_per_h: float | None = Field(None, gt=0, allow_inf_nan=False)
     options: dict[str, Any] = Field(default_factory=dict)
 
     @property
     def policy(self) -> DriftPolicy:
-        """``drift`` parsed once into what the run does about a drifting gyro."""
-        return DriftPolicy.parse(self.drift)
+        """``drift`` parsed once into what the run does about a drifting gyro.
+
+        With ``drift_split_hz_per_h``, the lab's prior on the split's rate (docs/drift-model.md).
+        """
+        return DriftPolicy.parse(self.drift, self.drift_split_hz_per_h)
 
     def structure_options(self, accepted: Sequence[str]) -> dict[str, Any]:
         """Keyword options for a structure's factory taking ``accepted`` keywords.
