@@ -152,11 +152,13 @@ def predictions(
     at: float,
     drift: Drift | None = None,
     applied: np.ndarray | None = None,
+    sigma: dict[str, float] | None = None,
 ) -> dict[str, np.ndarray]:
     """Each way's split vector (mHz) at ``bias`` (the model's electrodes) and time ``at``.
 
     ``drift`` (the truth's, of a replica) and ``applied`` (the bias of every electrode at
-    ``at``) give the ``true-drift`` way.
+    ``at``) give the ``true-drift`` way; ``sigma``, if given, receives the ``filter`` way's own
+    standard deviation per component (mHz).
     """
     latest = near[-1]
     found = anchor(model, [latest.sweep], rate=False)
@@ -207,6 +209,8 @@ def predictions(
         a, b = fc.vector_hz * scale
         out[name] = given(root @ np.array([[a, b], [b, -a]]) @ root)
     _, fc = windows_forecast(model, base, [(w.sweep, w.own) for w in near], at)
+    if sigma is not None:
+        sigma["filter"] = 1e3 * fc.sigma_hz
     a, b = fc.vector_hz * scale
     out["filter"] = given(root @ np.array([[a, b], [b, -a]]) @ root)
     if len(near) > 2:
@@ -275,7 +279,9 @@ def replay(folder: Path, device: Any, acceptance_hz: float = 0.002) -> list[dict
 
         true = truth(bias, at)
         row: dict[str, float] = {"iteration": float(it), "true": float(np.hypot(*true))}
-        found_ways = predictions(model, now, near, tuned, at, drift=drift, applied=bias)
+        sigma: dict[str, float] = {}
+        found_ways = predictions(model, now, near, tuned, at, drift, bias, sigma)
+        row["filter_sigma"] = sigma["filter"]
         true_rate = drift(bias, at, at + 60.0)
         row["rate_true"] = float(np.hypot(*true_rate))
         if RATE in found_ways:

@@ -35,11 +35,20 @@ from sysid_core.model.fitted import FittedModel
 from sysid_core.model.structures import ModelStructure
 from sysid_core.tuning.criteria import TuningResult
 
-__all__ = ["Knowledge", "Measured"]
+__all__ = ["LEVEL_SHARE", "Knowledge", "Measured", "levels"]
 
 #: Biases closer than this (volts) count as the same (a DAC applies the requested bias only to
 #: within its step).
 SAME_V = 1e-3
+
+#: Where the sweeps near a bias stand in for a local design (:meth:`Knowledge.meets_rank`), an
+#: electrode's biases closer than this share of the design's step are one level of it. The
+#: law's slope from two levels ``δ`` apart has ``(h/δ)²`` times the variance it has from the
+#: design's step ``h``: windows at DAC codes a few LSBs apart meet the rank condition (6) in
+#: exact arithmetic and tell the law nothing (an uncontrolled lab's run whose local fits read
+#: the law from windows 0.3-1 mV apart took a split sensitivity of 0.1-0.6 Hz/V where it was
+#: 1.9: docs/studies/repeated-looks.md). At half a step, at most four times the variance.
+LEVEL_SHARE = 0.5
 
 #: Fits a data set with a given structure (the run's objective and solver).
 FitWith = Callable[[xr.Dataset, ModelStructure], FittedModel]
@@ -158,11 +167,12 @@ class Knowledge:
         near = self._near(bias, radius) or self.items
         return concat_experiments([m.data for m in near]).sel(electrode=self.tuned)
 
-    def meets_rank(self, bias: np.ndarray, radius: float, law: str) -> bool:
+    def meets_rank(self, bias: np.ndarray, radius: float, law: str, apart: float = SAME_V) -> bool:
         """The sweeps near ``bias`` meet the rank condition (6) for ``law``.
 
         ``"auto"`` asks for the quadratic law's rank (a two-sided design), so that the local
-        fit can still choose.
+        fit can still choose. Each electrode's biases closer than ``apart`` volts count as one
+        level (:func:`levels`; a local design passes :data:`LEVEL_SHARE` of its step).
         """
         near = [
             a
@@ -173,7 +183,7 @@ class Knowledge:
             return False
         try:
             check_rank_condition(
-                np.concatenate(near),
+                levels(np.concatenate(near), apart),
                 self.structure_potential,
                 self.tuned,
                 quadratic=law != "linear",
@@ -183,7 +193,13 @@ class Knowledge:
         return True
 
     def completing(
-        self, bias: np.ndarray, radius: float, law: str, design: np.ndarray, index: Sequence[int]
+        self,
+        bias: np.ndarray,
+        radius: float,
+        law: str,
+        design: np.ndarray,
+        index: Sequence[int],
+        apart: float = SAME_V,
     ) -> list[int]:
         """The rows of ``design`` to measure so that the sweeps near ``bias`` meet (6).
 
@@ -192,24 +208,22 @@ class Knowledge:
         taken before it, until the rank is full. A sweep measured a few tenths of a volt away
         tells the local law what a new one at the design's bias would; only what the near
         sweeps lack is measured. ``index``: the tuned electrodes' columns of ``design`` (and of
-        every sweep's requested bias).
+        every sweep's requested bias); ``apart``: as in :meth:`meets_rank`.
         """
         vg, quadratic = self.structure_potential, law != "linear"
         # requested biases on both sides (a DAC's few LSBs would count as levels of their own),
-        # on a grid of SAME_V: requests closer than that are one level of the DAC too
-        rows = [_level(m.bias[list(index)])[None, :] for m in self._near(bias, radius)]
+        # each electrode's within ``apart`` of each other one level
+        rows = [m.bias[list(index)][None, :] for m in self._near(bias, radius)]
         need = (2 if quadratic else 1) * len(self.tuned) + 1
-        rank = design_rank(np.concatenate(rows), vg, quadratic) if rows else 0
+        rank = design_rank(levels(np.concatenate(rows), apart), vg, quadratic) if rows else 0
         taken: list[int] = []
         for j, b in enumerate(design):
             if rank >= need:
                 break
             if self.has(b):
                 continue
-            trial = np.concatenate(
-                [*rows, _level(np.asarray(b, dtype=float)[list(index)])[None, :]]
-            )
-            if (r := design_rank(trial, vg, quadratic)) > rank:
+            trial = np.concatenate([*rows, np.asarray(b, dtype=float)[list(index)][None, :]])
+            if (r := design_rank(levels(trial, apart), vg, quadratic)) > rank:
                 rows, rank = [trial], r
                 taken.append(j)
         return taken
@@ -330,6 +344,23 @@ class Knowledge:
         )
 
 
-def _level(bias: np.ndarray) -> np.ndarray:
-    """``bias`` on a grid of :data:`SAME_V`: the level a DAC applies for it, whatever its LSB."""
-    return np.round(np.asarray(bias, dtype=float) / SAME_V) * SAME_V
+def levels(biases: np.ndarray, apart: float = SAME_V) -> np.ndarray:
+    """``biases`` (one row a sweep) with each electrode's values gathered into levels.
+
+    Column by column, in ascending order, a value within ``apart`` volts of the first of its
+    level joins it and takes that level's mean; the rows come back in their order. Biases a
+    DAC's few LSBs apart (``apart`` = :data:`SAME_V`), or a small share of a design's step,
+    are then one level of the rank condition (6), which the column scaling of
+    :func:`~sysid_core.data.validation.design_rank` would otherwise count as apart as any.
+    """
+    rows = np.array(biases, dtype=float, ndmin=2)
+    out = rows.copy()
+    for p in range(rows.shape[1]):
+        order = np.argsort(rows[:, p], kind="stable")
+        start = 0
+        for k in range(1, order.size + 1):
+            if k == order.size or rows[order[k], p] - rows[order[start], p] > apart:
+                group = order[start:k]
+                out[group, p] = rows[group, p].mean()
+                start = k
+    return out

@@ -22,7 +22,7 @@ from sysid_core.data.schema import point_times
 from sysid_core.errors import SysidError
 from sysid_core.measure.contraction import Costs, too_slow
 from sysid_core.measure.evidence import WindowAssessment
-from sysid_core.measure.knowledge import Knowledge
+from sysid_core.measure.knowledge import LEVEL_SHARE, Knowledge
 from sysid_core.measure.lean import (
     FINE_STEP,
     LOCAL_RADIUS,
@@ -122,11 +122,12 @@ class LeanProtocol(Protocol):
         if it == 1:  # the centre first (is the bench quiet?), then the electrodes to tune
             self._centre(bias, folder)
         law = ctx.config.model.stiffness
-        if it == 1 or not self.known.meets_rank(bias, radius, law):
+        apart = LEVEL_SHARE * ctx.step(scale)
+        if it == 1 or not self.known.meets_rank(bias, radius, law, apart):
             design = ctx.design(bias, scale, quiet=self.quiet and scale == 1)
             todo: Sequence[int] = range(len(design))  # the first design whole; later, what lacks
             if it > 1:
-                todo = self.known.completing(bias, radius, law, design, ctx.space.index)
+                todo = self.known.completing(bias, radius, law, design, ctx.space.index, apart)
             for j in (j for j in todo if not self.known.has(design[j])):
                 self._learn(design[j], folder / f"exp{j}.nc")
         if it == 1:
@@ -293,7 +294,8 @@ class LeanProtocol(Protocol):
         try:  # the local design's sweeps it would measure, priced like the verification's
             law, radius = ctx.config.model.stiffness, LOCAL_RADIUS * ctx.step(it)
             design = ctx.design(vb, it)
-            missing = len(self.known.completing(vb, radius, law, design, ctx.space.index))
+            apart = LEVEL_SHARE * ctx.step(it)
+            missing = len(self.known.completing(vb, radius, law, design, ctx.space.index, apart))
             costs = Costs.of(ctx.cost_s, self.verify_points, missing)
         except SysidError:  # no local design there: the rate alone decides
             costs = None

@@ -1,28 +1,29 @@
-"""A tracked run weighs windows that scatter more than their fits state by what they scatter.
+"""A tracked run in a lab whose analyzer wanders: what it says of its windows, and its truth.
 
 Truth: the simulated gyro's true split at the end of the run (the run never sees it). Random
 gyro 225 (8 tones) in the uncontrolled lab of docs/studies/drift-lab.md (±1.5 K/h ramp,
 0.5 K/√h walk, 15 mV/h charging, 60 dB SNR) with an analyzer that wanders a third more than
-that lab's (0.4 % / 0.13° instead of 0.3 % / 0.1°: since the scouts fill whole acquisitions
-this gyro's run takes another path, on which the lab's own wander no longer shows), located by
-the whole locating band (``probe = false``): after some ten verifications its windows, read
-together, scatter more than their fits state
-(:func:`sysid_core.identification.trendnoise.fitted_trend` rejects a scale of one); the run says
-so, weighs them by the scale, and ends still verifying (it claims nothing) with the true split
-under twice the acceptance, the bound of a false convergence (1.78 mHz after 12 iterations with
-grids of one shape; 2.41 with grids chosen by information per second, 1.96 after 20: the split
-hovers at the acceptance). The scale itself is tested on
-synthetic windows in tests/identification/test_trendnoise.py.
+that lab's (0.4 % / 0.13° instead of 0.3 % / 0.1°), located by the whole locating band
+(``probe = false``). While its local fits read the stiffness law from windows at DAC codes
+millivolts apart, its windows, read together, scattered more than their fits stated, and it
+hovered at the acceptance without claiming it (1.78-2.41 mHz true after 12-20 iterations);
+with those windows one level of a local design (:data:`sysid_core.measure.knowledge.LEVEL_SHARE`)
+it converges, under the acceptance (0.53 mHz true). The scale the windows choose is tested
+on synthetic windows in tests/identification/test_trendnoise.py; what the progress line says
+of it is tested here.
 """
 
 from __future__ import annotations
 
-import re
+import dataclasses
 from pathlib import Path
 
+import pytest
 from truths import degenerate_config
 
 from sysid_core import tune
+from sysid_core.identification.splittrend import LAB_TREND
+from sysid_core.identification.trendnoise import noise_said
 from sysid_core.plugin.registry import get_registry
 
 ACCEPTANCE = 0.002
@@ -35,7 +36,9 @@ LAB = {
 }
 
 
-def test_windows_that_scatter_more_than_their_fits_are_weighed_by_it(tmp_path: Path) -> None:
+def test_a_run_in_a_wandering_lab_ends_under_the_acceptance_or_claims_nothing(
+    tmp_path: Path,
+) -> None:
     seed = 225
     bench = {**LAB, "seed": seed, "tones": 8, "temperature_ramp_k_per_h": 1.5}
     device = get_registry().device("random-gyro", seed=seed, noise=1e-3, bench=bench)
@@ -46,15 +49,29 @@ def test_windows_that_scatter_more_than_their_fits_are_weighed_by_it(tmp_path: P
         model={"drift": "auto", "structure": device.structure},
         experiment={"probe": False},
     )
-    lines: list[str] = []
-    result = tune(config, tmp_path / "run", device=device, plots=False, progress=lines.append)
-    said = [
-        float(m.group(1))
-        for line in lines
-        if (m := re.search(r"the windows scattering ([0-9.]+) times what their fits state", line))
-    ]
-    assert said, "no progress line said the windows scatter more than their fits"
-    # the scale's grid starts at √2 (a scatter of 1.19 times) and tops at 8 times
-    assert all(1.18 <= s <= 8.0 for s in said)
+    result = tune(config, tmp_path / "run", device=device, plots=False)
     f = device.true_modal_frequencies_hz(result.bias)
-    assert f[1] - f[0] < 2 * ACCEPTANCE
+    if result.converged:
+        assert f[1] - f[0] <= ACCEPTANCE
+    else:
+        assert f[1] - f[0] < 2 * ACCEPTANCE
+
+
+@pytest.mark.parametrize(
+    ("scale", "change_s", "said"),
+    [
+        (1.0, float("inf"), ""),
+        (4.0, float("inf"), " (the windows scattering 2 times what their fits state)"),
+        (
+            2.0,
+            60.0,
+            " (the windows scattering 1.4 times what their fits state; its rate changing "
+            "within about 1 min)",
+        ),
+    ],
+)
+def test_the_progress_line_says_what_the_windows_showed(
+    scale: float, change_s: float, said: str
+) -> None:
+    trend = dataclasses.replace(LAB_TREND, window_variance_scale=scale, rate_change_s=change_s)
+    assert noise_said(trend) == said

@@ -16,7 +16,7 @@ from sysid_cloverleaf import CloverleafGyro
 
 from sysid_core.data import experiment_from_measurement
 from sysid_core.measure.evidence import WindowAssessment
-from sysid_core.measure.knowledge import SAME_V, Knowledge
+from sysid_core.measure.knowledge import LEVEL_SHARE, SAME_V, Knowledge, levels
 from sysid_core.measure.sweeps import design_experiments
 from sysid_core.tuning.criteria import TuningResult
 
@@ -142,20 +142,22 @@ def test_a_local_design_measures_only_what_the_sweeps_near_the_bias_lack() -> No
 @given(
     move=st.tuples(st.floats(-0.6, 0.6, allow_nan=False), st.floats(-0.6, 0.6, allow_nan=False)),
     law=st.sampled_from(["auto", "linear"]),
+    apart=st.sampled_from([SAME_V, LEVEL_SHARE * 0.25]),
 )
-def test_what_completing_asks_for_meets_the_rank_with_no_more_sweeps(move, law) -> None:
+def test_what_completing_asks_for_meets_the_rank_with_no_more_sweeps(move, law, apart) -> None:
     """Property: measuring the rows it names makes the sweeps near the bias meet (6), and they
-    are never more than the design's own steps."""
+    are never more than the design's own steps; with levels a DAC step or half the design's
+    step wide (what a local design passes)."""
     gyro = CloverleafGyro(seed=1)
     old = _step_design(np.array([1.0, 1.0, 0.0]))
     new = np.array([1.0 + move[0], 1.0 + move[1], 0.0])
     known = _known_at(gyro, [*old, new])
     design = _step_design(new)
-    todo = known.completing(new, 0.375, law, design, [0, 1])
+    todo = known.completing(new, 0.375, law, design, [0, 1], apart)
     assert len(todo) <= len(design) - 1 and 0 not in todo  # the centre is known
     for j in todo:
         known.add(sweep(gyro, design[j]), None)
-    assert known.meets_rank(new, 0.375, law)
+    assert known.meets_rank(new, 0.375, law, apart)
 
 
 def test_requests_closer_than_a_dac_step_are_one_level() -> None:
@@ -171,3 +173,43 @@ def test_requests_closer_than_a_dac_step_are_one_level() -> None:
     for j in todo:
         known.add(sweep(gyro, design[j]), None)
     assert known.meets_rank(new, 0.375, "auto")
+
+
+def test_windows_at_codes_a_few_millivolts_apart_are_one_level_of_a_local_design() -> None:
+    """Six windows within 5 mV of an answer meet the quadratic law's rank (6) in exact
+    arithmetic (the rank's columns are scaled to their own spread); they tell the law's slope
+    nothing a design of ±0.25 V would not tell 2500 times better in variance. As levels half a
+    design step wide they are one bias, and the local design measures its four steps."""
+    gyro = CloverleafGyro(seed=1)
+    new = np.array([1.3, 1.3, 0.0])
+    codes = 1e-3 * np.array([[0, 0], [1.5, 0.3], [3.0, 2.1], [0.6, 4.2], [4.5, 1.2], [2.4, 4.8]])
+    known = _known_at(gyro, [new + np.r_[c, 0.0] for c in codes])
+    assert known.meets_rank(new, 0.375, "auto")  # every window a level of its own
+    apart = LEVEL_SHARE * 0.25
+    assert not known.meets_rank(new, 0.375, "auto", apart)
+    assert known.completing(new, 0.375, "auto", _step_design(new), [0, 1], apart) == [1, 2, 3, 4]
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    values=st.lists(
+        st.tuples(st.floats(-10, 10, allow_nan=False), st.floats(-10, 10, allow_nan=False)),
+        min_size=1,
+        max_size=12,
+    ),
+    apart=st.floats(1e-4, 2.0),
+)
+def test_levels_move_no_bias_further_than_a_level_and_keep_levels_apart(values, apart) -> None:
+    """Property: each bias moves by at most ``apart`` within its electrode; the rows keep their
+    order; two values more than ``2 apart`` apart stay two levels, and values within a level
+    become one."""
+    rows = np.array(values, dtype=float)
+    out = levels(rows, apart)
+    assert out.shape == rows.shape
+    assert np.all(np.abs(out - rows) <= apart * (1 + 1e-9) + 1e-12)
+    for p in range(rows.shape[1]):
+        for i in range(len(rows)):
+            for j in range(len(rows)):
+                if abs(rows[i, p] - rows[j, p]) > 2 * apart:
+                    assert out[i, p] != out[j, p]
+    assert np.ptp(levels(np.array([[0.0], [0.4 * apart], [0.9 * apart]]), apart)) == 0.0
