@@ -45,9 +45,8 @@ SAME_V = 1e-3
 #: electrode's biases closer than this share of the design's step are one level of it. The
 #: law's slope from two levels ``δ`` apart has ``(h/δ)²`` times the variance it has from the
 #: design's step ``h``: windows at DAC codes a few LSBs apart meet the rank condition (6) in
-#: exact arithmetic and tell the law nothing (an uncontrolled lab's run whose local fits read
-#: the law from windows 0.3-1 mV apart took a split sensitivity of 0.1-0.6 Hz/V where it was
-#: 1.9: docs/studies/repeated-looks.md). At half a step, at most four times the variance.
+#: exact arithmetic and tell the law's slope next to nothing. At half a step, at most four
+#: times the design's variance (docs/studies/local-law.md measures both on runs).
 LEVEL_SHARE = 0.5
 
 #: Fits a data set with a given structure (the run's objective and solver).

@@ -69,7 +69,9 @@ class ModelConfig(_Strict):
     paper's model. ``drift``: ``"auto"`` (default), ``"track"`` once the measurements carry
     time stamps (a bench with a clock) and ``"none"`` while they do not; ``"none"``;
     ``"track"``, every answer solved for the gyro as it will be at the next verification, the
-    model anchored on the latest verified windows (:mod:`sysid_core.drift.tracker`). See
+    model anchored on the latest verified windows (:mod:`sysid_core.drift.tracker`).
+    ``drift_split_hz_per_h``: how fast the split may drift on the bench (Hz/h, the prior
+    standard deviation of each component of its rate; unset, the stated trend's). See
     docs/drift-model.md (:mod:`sysid_core.drift.policy`).
     """
 
