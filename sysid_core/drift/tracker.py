@@ -33,12 +33,11 @@ import xarray as xr
 from sysid_core.clock.runclock import stamps
 from sysid_core.data.schema import requested_bias
 from sysid_core.drift.forecast import (
-    bias_key,
     interval_variance,
     windows_forecast,
     with_split_rate,
 )
-from sysid_core.drift.looks import rayleigh_point, split_bound
+from sysid_core.drift.looks import next_look, rayleigh_point, split_bound
 from sysid_core.drift.policy import DriftPolicy
 from sysid_core.drift.windows import blind, least_of
 from sysid_core.errors import ModelError
@@ -113,10 +112,12 @@ class Tracker:
     forecast: SplitForecast | None = None
     #: The split the windows predicted at the end of the latest by the last :meth:`end_split`.
     at_end: SplitForecast | None = None
-    #: How many windows in a row :meth:`end_split` has judged at one bias (:attr:`looked_at`):
-    #: each a look at one split, held to its level (:func:`~sysid_core.drift.looks.look_level`).
+    #: How many windows in a row :meth:`end_split` has judged at one split, each held to its
+    #: level (:func:`~sysid_core.drift.looks.look_level`), and the bias of the latest
+    #: (electrode: volts): a code that moves the split by no more than the forecast's standard
+    #: deviation from there continues the count (:func:`~sysid_core.drift.looks.next_look`).
     looks: int = 0
-    looked_at: tuple[float, ...] | None = None
+    looked_at: dict[str, float] | None = None
 
     @classmethod
     def of(
@@ -332,8 +333,8 @@ class Tracker:
         Its upper bound and its mean (Hz): ``model`` given the split vector the windows'
         filter predicts at the window's last time stamp, at that window's bias, with the
         filter's variance; the bound is the Rice distribution's point at this look's level
-        (:func:`~sysid_core.drift.looks.split_bound`: 95 % at the first look at a bias, more at
-        each later one in a row there, :attr:`looks` counts them). None unless ``sweep`` is the
+        (:func:`~sysid_core.drift.looks.split_bound`: 95 % at the first look at a split, more at
+        each later one in a row at it, :attr:`looks` counts them). None unless ``sweep`` is the
         latest window kept and gives a split of its own.
         """
         self.at_end = None
@@ -345,12 +346,16 @@ class Tracker:
             model, model, chosen, end, self.trend, self.own_variances(chosen)
         )
         self.at_end = found
-        key = bias_key(sweep)
-        self.looks = self.looks + 1 if key == self.looked_at else 1
-        self.looked_at = key
         at_end = dataclasses.replace(model, K0=np.asarray(model.K0) + offset)
         bias = np.asarray(sweep.sel(electrode=list(model.electrodes))["bias"].values[0])
-        mean = float(np.hypot(*split_vector_hz(at_end.M, at_end.stiffness(bias))))
+        vector = split_vector_hz(at_end.M, at_end.stiffness(bias))
+        then = np.array([(self.looked_at or {}).get(e, np.nan) for e in model.electrodes])
+        change = np.inf
+        if then.size and not np.isnan(then).any():
+            change = float(np.hypot(*(vector - split_vector_hz(at_end.M, at_end.stiffness(then)))))
+        self.looks = next_look(self.looks, change, found.sigma_hz)
+        self.looked_at = dict(zip(model.electrodes, map(float, bias), strict=True))
+        mean = float(np.hypot(*vector))
         return split_bound(mean, found.sigma_hz, self.looks), mean
 
     def floor(self, windows: int, every_s: float) -> float | None:

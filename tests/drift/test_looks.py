@@ -23,7 +23,13 @@ from hypothesis import strategies as st
 from scipy.stats import rice
 
 from sysid_core.drift import tracker as tracker_module
-from sysid_core.drift.looks import END_LEVEL, look_level, rayleigh_point, split_bound
+from sysid_core.drift.looks import (
+    END_LEVEL,
+    look_level,
+    next_look,
+    rayleigh_point,
+    split_bound,
+)
 from sysid_core.drift.tracker import Tracker
 from sysid_core.identification.splittrend import SplitForecast
 from sysid_core.model.modal import split_vector_hz
@@ -92,9 +98,13 @@ def test_a_split_well_under_the_goal_still_passes() -> None:
     assert looks <= 8  # measured 5 (3 with every look at 95 %)
 
 
+SLOPE_HZ_PER_V = 4 * MHZ  # how fast the bias moves the split of :class:`_Gyro`
+
+
 @dataclasses.dataclass(frozen=True)
 class _Gyro:
-    """What :meth:`Tracker.end_split` reads of a model: a 1 kHz gyro split by 0.6 mHz."""
+    """What :meth:`Tracker.end_split` reads of a model: a 1 kHz gyro split by 0.6 mHz at 0 V,
+    its split growing by :data:`SLOPE_HZ_PER_V`."""
 
     K0: np.ndarray = dataclasses.field(
         default_factory=lambda: np.diag((2 * np.pi * np.array([1000.0, 1000.0006])) ** 2)
@@ -104,10 +114,12 @@ class _Gyro:
     stiffness_factor: None = None  # no split interval of its own
 
     def stiffness(self, bias: np.ndarray) -> np.ndarray:
-        return self.K0
+        v = np.asarray(bias, dtype=float).reshape(-1)
+        upper = 1000.0006 + SLOPE_HZ_PER_V * (float(v[0]) if v.size else 0.0)
+        return self.K0 + np.diag([0.0, (2 * np.pi) ** 2 * (upper**2 - 1000.0006**2)])
 
     def split_hz(self, bias: object) -> float:
-        return float(np.hypot(*split_vector_hz(self.M, self.K0)))
+        return float(np.hypot(*split_vector_hz(self.M, self.stiffness(np.asarray(bias)))))
 
 
 def _window(bias: float, t: float) -> xr.Dataset:
@@ -118,24 +130,38 @@ def _window(bias: float, t: float) -> xr.Dataset:
     )
 
 
-def test_the_tracker_counts_looks_in_a_row_at_one_bias(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The bound tightens with each look at one bias and starts again at a new one."""
+def test_the_tracker_counts_looks_in_a_row_at_one_split(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The bound tightens with each look at one split and starts again at a new one.
+
+    A code 0.1 mV away moves the split by 0.4 µHz, far inside the forecast's 0.2 mHz: the
+    same split looked at again. One 0.25 V away moves it by 1 mHz: a new split.
+    """
     sigma = 0.2 * MHZ
     found = SplitForecast(np.zeros(2), sigma**2, np.zeros(2), 0.0, 1)
     monkeypatch.setattr(
         tracker_module, "windows_forecast", lambda *a, **k: (np.zeros((2, 2)), found)
     )
     gyro, tracker = _Gyro(), Tracker(near_hz=10 * GOAL)
-    mean = float(np.hypot(*split_vector_hz(gyro.M, gyro.K0)))
+    biases = [0.25, 0.25, 0.2501, 0.5]
     bounds = []
-    for k, bias in enumerate([0.25, 0.25, 0.25, 0.5]):
+    for k, bias in enumerate(biases):
         window = _window(bias, 20.0 * k)
         tracker.refreshed(window, 0.6 * MHZ, gyro)  # type: ignore[arg-type]
         end = tracker.end_split(gyro, window)  # type: ignore[arg-type]
-        assert end is not None and end[1] == pytest.approx(mean)
-        bounds.append((tracker.looks, end[0]))
-    assert [looks for looks, _ in bounds] == [1, 2, 3, 1]
-    for looks, bound in bounds:
+        assert end is not None and end[1] == pytest.approx(gyro.split_hz([bias]))
+        bounds.append((tracker.looks, end[0], end[1]))
+    assert [looks for looks, _, _ in bounds] == [1, 2, 3, 1]
+    for looks, bound, mean in bounds:
         assert bound == pytest.approx(split_bound(mean, sigma, looks))
     assert bounds[0][1] < bounds[1][1] < bounds[2][1]
-    assert bounds[3][1] == pytest.approx(bounds[0][1])
+
+
+@pytest.mark.parametrize(
+    ("looks", "change", "then"),
+    [(0, 0.0, 1), (1, 0.0, 2), (4, 0.1, 5), (4, 0.2, 5), (4, 0.21, 1), (4, np.inf, 1)],
+)
+def test_a_look_continues_the_count_while_the_split_moves_within_a_sigma(
+    looks: int, change: float, then: int
+) -> None:
+    """:func:`next_look` with a forecast σ of 0.2 (any unit): a change up to σ is the same split."""
+    assert next_look(looks, change, 0.2) == then
