@@ -13,18 +13,21 @@ each costing what the latest one cost on the bench clock. Measuring the local de
 experiments of eq. (18) around the bias that are not measured yet) costs its sweeps and at least
 one verification after them. :func:`too_slow` says when the design is the cheaper way to the
 acceptance (``n`` verifications cost more than the design and one verification), when the rate
-would not reach it in the iterations the budget leaves, or when the split did not fall at all;
-the run then measures the local design (:class:`~sysid_core.run.lean_protocol.LeanProtocol`, and a
-run from a previous model, :class:`~sysid_core.measure.previous.PreviousModel`). Otherwise it
-fits every sweep again and verifies the next answer: a model whose answers contract fast
-(``r`` of a few percent) is not paid a design it does not need. The rate is read from the
-second verification on, never from the split where the run started: the first answer carries
-the first design's law over the whole first step (volts from the sweeps), while the next one
-comes from a model that holds a sweep at the bias it steps from. On a drifting bench the rate
-is what the verified splits did, the drift included: sweeps that the drift has made too old for
-the answers show as a split that does not fall, and the design follows. (A rule that sent every
-tracked run to the local design once its sweeps spanned an hour was measured and dropped:
-docs/studies/design-pays.md, "Sweeps an hour old".)
+would not reach it in the iterations the budget leaves, or when the split did not fall at all; the
+run then measures the local design (:class:`~sysid_core.run.lean_protocol.LeanProtocol`, and a run
+from a previous model, :class:`~sysid_core.measure.previous.PreviousModel`). Otherwise it fits
+every sweep again and verifies the next answer: a model whose answers contract fast (``r`` of a few
+percent) is not paid a design it does not need. The rate is read from the second verification on,
+never from the split where the run started: the first answer carries the first design's law over
+the whole first step (volts from the sweeps), while the next one comes from a model that holds a
+sweep at the bias it steps from. That first rate overstates the next one's, so it may still decline
+a design: a local run asking whether the sweeps it lacks pay before a second verified split reads
+it (the split where the run started, then the verified one); where even that rate says verifying is
+cheaper, the faster one says it too. On a drifting bench the rate is what the verified splits did,
+the drift included: sweeps that the drift has made too old for the answers show as a split that
+does not fall, and the design follows. (A rule that sent every tracked run to the local design once
+its sweeps spanned an hour was measured and dropped: docs/studies/design-pays.md, "Sweeps an hour
+old".)
 """
 
 from __future__ import annotations

@@ -191,6 +191,25 @@ class Knowledge:
             return False
         return True
 
+    def rank_reach(self, bias: np.ndarray, law: str, apart: float = SAME_V) -> float | None:
+        """The smallest radius whose sweeps near ``bias`` meet (6) (:meth:`meets_rank`), or None.
+
+        The radii tried are the sweeps' distances from ``bias`` (largest ``|Δv|``); more sweeps
+        never lower the rank, so the first that meets it is found by bisection. None when every
+        sweep together does not meet it.
+        """
+        radii = sorted({float(np.max(np.abs(m.bias - bias))) for m in self.items})
+        if not radii or not self.meets_rank(bias, radii[-1], law, apart):
+            return None
+        lo, hi = -1, len(radii) - 1  # radii[hi] meets the rank; radii[lo] does not (-1: none)
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if self.meets_rank(bias, radii[mid], law, apart):
+                hi = mid
+            else:
+                lo = mid
+        return radii[hi]
+
     def completing(
         self,
         bias: np.ndarray,
@@ -226,6 +245,10 @@ class Knowledge:
                 rows, rank = [trial], r
                 taken.append(j)
         return taken
+
+    def first_split(self) -> float | None:
+        """The split of the run's first sweep that located the modes (Hz), or None."""
+        return next((m.modes.split_hz for m in self.every if m.modes is not None), None)
 
     def latest(self) -> Measured | None:
         """The latest sweep with located modes, or None."""

@@ -2,9 +2,9 @@
 
 Every sweep is kept (:class:`~sysid_core.measure.knowledge.Knowledge`) and fitted again while the
 verifications agree with the model of all of them, the sweeps near the bias once they do not
-(:mod:`sysid_core.measure.lean`). Where the sweeps near the bias do not meet the rank condition,
-it measures only the experiments of the local design they lack
-(:meth:`~sysid_core.measure.knowledge.Knowledge.completing`).
+(:mod:`sysid_core.measure.lean`). Where those lack the rank condition it measures the local
+design's experiments they lack (``Knowledge.completing``), unless the split falls so fast that
+the answer of the nearest sweeps that meet it is the cheaper way (:meth:`LeanProtocol._reach`).
 """
 
 from __future__ import annotations
@@ -57,8 +57,8 @@ class LeanProtocol(Protocol):
     """Points where the modes are, every sweep kept (see the module).
 
     Later iterations fit every sweep while the last verification agrees with the model
-    (:meth:`_design_now`); after that, or a move to the best reachable bias, the sweeps
-    near the bias, measuring what they lack of the local design to meet the rank condition.
+    (:meth:`_design_now`); after that, or a move to the best reachable bias, the sweeps near
+    the bias, measuring what they lack of the local design to meet (6) where it pays.
     """
 
     def __init__(self, ctx: RunContext, prior: FittedModel | None = None) -> None:
@@ -68,15 +68,13 @@ class LeanProtocol(Protocol):
         self.previous = PreviousModel.given(prior, ctx.config.tuning.acceptance_hz)
         self.known = Knowledge(ctx.space.tuned, ctx.space.structure_potential)
         self.locate_plan = locate_plan(ctx.plan, ctx.config.experiment.locate_points)
-        self.local = False
-        self.moved = False
+        self.local, self.moved = False, False
         self.last_verified: tuple[np.ndarray, np.ndarray] | None = None
         self.splits: list[float] = []  # every verified split, in order
         #: The points of each sweep of the latest verification (what one costs).
         self.verify_points: list[int] = []
-        #: With ``probe``, the run's first look at the band is a probe
-        #: (:mod:`sysid_core.measure.locating`); whether it found the bench quiet decides the first
-        #: design.
+        #: With ``probe``, the run's first look at the band is a probe (``measure.locating``);
+        #: whether it found the bench quiet decides the first design.
         self.quiet, self.scout_plan = False, self.locate_plan
         #: Whether the probe showed both modes: a band at its step shows this gyro's modes on
         #: this bench, and is the first band a later sweep that misses them falls back to.
@@ -103,6 +101,7 @@ class LeanProtocol(Protocol):
             return self._from_previous(it, bias, folder)
         # every electrode offered again where the first design was: that design, over them all
         again = self.electrodes.regrown(bias)
+        chord = self.local and not (self.moved or again)  # local before, where it is: _reach
         # the electrodes a pair was chosen before, once it gave way (none at the first)
         self.electrodes.complete(bias, folder, self.moved)
         if it > 1 and self.moved:
@@ -118,18 +117,11 @@ class LeanProtocol(Protocol):
             self.local = True
             ctx.say(f"iteration {it}: {why}; fitting the sweeps near the bias from now on")
         scale = 1 if again else it
-        radius = LOCAL_RADIUS * ctx.step(scale)
-        if it == 1:  # the centre first (is the bench quiet?), then the electrodes to tune
-            self._centre(bias, folder)
-        law = ctx.config.model.stiffness
-        apart = LEVEL_SHARE * ctx.step(scale)
-        if it == 1 or not self.known.meets_rank(bias, radius, law, apart):
-            design = ctx.design(bias, scale, quiet=self.quiet and scale == 1)
-            todo: Sequence[int] = range(len(design))  # the first design whole; later, what lacks
-            if it > 1:
-                todo = self.known.completing(bias, radius, law, design, ctx.space.index, apart)
-            for j in (j for j in todo if not self.known.has(design[j])):
-                self._learn(design[j], folder / f"exp{j}.nc")
+        if it == 1 and not self.known.has(bias):  # the centre first (is the bench quiet?)
+            self._learn(bias, folder / "exp0.nc")
+        if it == 1:  # then the electrodes to tune (:class:`Electrodes`)
+            self.electrodes.choose(bias, folder)
+        radius = self._design(it, bias, folder, scale, chord)
         if it == 1:
             ctx.say(
                 f"iteration {it}: fitting {ctx.fitter.structure.name} model to "
@@ -138,11 +130,26 @@ class LeanProtocol(Protocol):
             return self.known.union(), None
         return self.known.near(bias, radius), None
 
-    def _centre(self, bias: np.ndarray, folder: Path) -> None:
-        """The centre of the first design, then the electrodes to tune (:class:`Electrodes`)."""
-        if not self.known.has(bias):
-            self._learn(bias, folder / "exp0.nc")
-        self.electrodes.choose(bias, folder)
+    def _design(self, it: int, bias: np.ndarray, folder: Path, scale: int, chord: bool) -> float:
+        """Measure the design of iteration ``it`` (later: what the sweeps near ``bias`` lack).
+
+        Returns the radius of the sweeps to fit: :data:`LOCAL_RADIUS` steps, or with ``chord`` (a
+        local run that did not move) :meth:`_reach`'s where that is the cheaper way (no sweep).
+        """
+        ctx, law = self.ctx, self.ctx.config.model.stiffness
+        radius, apart = LOCAL_RADIUS * ctx.step(scale), LEVEL_SHARE * ctx.step(scale)
+        if it > 1 and self.known.meets_rank(bias, radius, law, apart):
+            return radius
+        design = ctx.design(bias, scale, quiet=self.quiet and scale == 1)
+        todo: Sequence[int] = range(len(design))  # the first design whole; later, what lacks
+        if it > 1:
+            todo = self.known.completing(bias, radius, law, design, ctx.space.index, apart)
+            todo = [j for j in todo if not self.known.has(design[j])]
+            if chord and (wide := self._reach(it, bias, apart, todo)):
+                return wide
+        for j in (j for j in todo if not self.known.has(design[j])):
+            self._learn(design[j], folder / f"exp{j}.nc")
+        return radius
 
     def every_sweep(self, it: int, bias: np.ndarray) -> xr.Dataset | None:
         """Every sweep so far, if the run fits only the sweeps near ``bias`` (and there are more).
@@ -309,6 +316,34 @@ class LeanProtocol(Protocol):
             return None, (union, model, notes)
         n = len(self.known)
         return f"a model of all {n} sweeps misses the verified modes by {gap * 1e3:.3g} mHz", None
+
+    def _reach(self, it: int, bias: np.ndarray, apart: float, todo: Sequence[int]) -> float:
+        """The radius of the nearest sweeps that meet (6), if their fit is the cheaper way (or 0).
+
+        The rate of the last two verified splits, priced against the ``todo`` sweeps of the local
+        design, decides as in :meth:`_design_now` (``contraction.too_slow``): while verifying is
+        the quicker way, the answer of the sweeps that gave the last one (a design a few tenths
+        of a volt away, the windows since) is verified next. Before a second verified split, the
+        split located where the run started stands for the last (the first answer's rate, which
+        overstates the next one's: ``measure.contraction``). Only on a run that tracks the drift:
+        its answers are anchored on the latest windows, where a plain fit spreads the law's error
+        over sweeps a volt away (``lean.explained_gap``).
+        """
+        first = self.known.first_split()
+        splits = self.splits if len(self.splits) > 1 or first is None else [first, *self.splits]
+        costs = Costs.of(self.ctx.cost_s, self.verify_points, len(todo))
+        if len(splits) < 2 or not todo or costs is None or not self.ctx.tracking:
+            return 0.0
+        ctx, (last, split) = self.ctx, splits[-2:]
+        if too_slow(last, split, ctx.left(), ctx.config.tuning.acceptance_hz, costs) is not None:
+            return 0.0
+        if reach := self.known.rank_reach(bias, ctx.config.model.stiffness, apart) or 0.0:
+            ctx.say(
+                f"iteration {it}: the split fell from {last * 1e3:.3g} to "
+                f"{split * 1e3:.3g} mHz; fitting the sweeps within {reach:.3g} V of the bias, "
+                f"not the {len(todo)} of the local design they lack"
+            )
+        return reach
 
     def _cost(self, bias_change: bool) -> Callable[[int], float] | None:
         """What a sweep of so many points costs on the bench clock (None: nothing says)."""

@@ -118,11 +118,12 @@ def test_auto_tracks_on_a_bench_with_a_clock_and_not_without_one(tmp_path: Path)
 def test_a_stale_window_is_measured_again_and_gives_the_rates(tmp_path: Path) -> None:
     """Random gyro 111 (1.69 kHz, the lab's bench): the window verified at an answer is older
     than the local design measured after it (its split fell too slowly); measured again, the
-    two windows of one bias anchor the model with a rate, and the run converges (0.58 mHz true).
-    The case was found on gyro 119 with ``probe = false``, then with the default probe, then on
-    gyro 125; with the grids chosen by information per second 10 of gyros 101-118 and 120-125
-    measure a window again, and 111 is the one that then anchors on the two windows of one
-    bias (the others converge or end as the other tests here describe)."""
+    windows of that bias (two) and those before anchor the model with a rate, and the run
+    converges. The case was found on gyro 119 with ``probe = false``, then with the default
+    probe, then on gyro 125; with the grids chosen by information per second 10 of gyros
+    101-118 and 120-125 measure a window again, and 111 is the one that then anchors on the
+    windows of one bias (two of them until local runs fitted the sweeps they had where the
+    split fell fast enough; four since, the window again at iteration 8)."""
     tracked, summary, lines = run(tmp_path, "track", seed=111)
     assert tracked < ACCEPTANCE
     assert summary["converged"]
@@ -132,7 +133,9 @@ def test_a_stale_window_is_measured_again_and_gives_the_rates(tmp_path: Path) ->
     assert again, "no window measured again"
     it = int(again[0].parent.name[4:])
     anchored = [line for line in lines if line.startswith(f"iteration {it}: the model anchored")]
-    assert anchored and "on 2 verified window(s)" in anchored[0]
+    assert anchored, "\n".join(lines)
+    windows = int(anchored[0].split(" on ")[1].split()[0])
+    assert windows >= 2  # a rate: the window again and the one it repeats, at least
 
 
 def test_a_window_blind_to_one_of_its_modes_does_not_give_its_split(tmp_path: Path) -> None:

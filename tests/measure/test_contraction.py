@@ -165,3 +165,27 @@ def test_sweeps_an_hour_old_are_fitted_while_the_split_falls(tmp_path: Path) -> 
     assert not list(run.glob("iter0[2-9]/exp*.nc"))  # verifications only
     f = device.true_modal_frequencies_hz(result.bias)
     assert result.converged and f[1] - f[0] <= 0.001
+
+
+def test_a_fast_fall_after_a_local_design_verifies_the_answer_of_the_sweeps_it_has(
+    tmp_path: Path,
+) -> None:
+    """Random gyro 796 (8 tones, a good lab's clock, first design ±1 V, six electrodes): the
+    pair chosen cannot reach degenerate modes, so iteration 2 measures the design of every
+    electrode where the first was, and its answer, 1.5 V away, takes the split from 9.6 Hz at
+    0 V to 244 mHz. A new local design there is twelve sweeps (40 dwells with the verification);
+    at the rate seen (the first answer's, which overstates the next) two verifications are
+    expected to reach 1 mHz. The run fits the nearest sweeps that meet the rank condition instead,
+    and again at the next answer (244 -> 24 mHz, two verified splits): no design after the second
+    iteration."""
+    device, options = good_lab(796, 0.2, tones=8)
+    config = degenerate_config(device, options, 300, 0.001, experiment={"bias_step": 1.0})
+    config["tuning"] |= {"electrodes": list(device.electrodes[:6]), "pair": True}
+    lines: list[str] = []
+    result = tune(config, tmp_path / "run", plots=False, device=device, progress=lines.append)
+    text = "\n".join(lines)
+    chords = [line for line in lines if "of the local design they lack" in line]
+    assert [line.split(":")[0] for line in chords[:2]] == ["iteration 3", "iteration 4"], text
+    assert not list((tmp_path / "run").glob("iter0[3-9]/exp*.nc")), text
+    f = device.true_modal_frequencies_hz(result.bias)
+    assert result.converged and f[1] - f[0] <= 2 * 0.001

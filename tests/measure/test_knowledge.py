@@ -8,6 +8,8 @@ rank condition (6), while one bias alone does not.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -84,12 +86,15 @@ def test_the_latest_located_modes_are_those_a_sweep_showed() -> None:
         bandwidth_hz=np.array([0.08, 0.08]),
     )  # no failed check: the evidence shows both modes
     known.add(sweep(gyro, np.zeros(3)), None)
-    assert known.latest() is None
+    assert known.latest() is None and known.first_split() is None
     known.add(sweep(gyro, near), seen)
     latest = known.latest()
     assert latest is not None and latest.modes is not None
     np.testing.assert_allclose(latest.bias, near, atol=1e-3)
     np.testing.assert_allclose(latest.modes.frequencies_hz, seen.frequencies_hz)
+    wider = dataclasses.replace(seen, frequencies_hz=np.array([4429.0, 4431.0]))
+    known.add(sweep(gyro, np.zeros(3)), wider)
+    assert known.first_split() == pytest.approx(0.006)  # the first sweep that located them
 
 
 def test_without_located_modes_a_window_is_centred_on_the_answer() -> None:
@@ -136,6 +141,37 @@ def test_a_local_design_measures_only_what_the_sweeps_near_the_bias_lack() -> No
     # sweeps that already meet the rank ask for nothing
     known = _known_at(gyro, old)
     assert known.completing(old[0], 0.375, "auto", old, [0, 1]) == []
+
+
+def test_the_reach_of_the_nearest_sweeps_that_meet_the_rank() -> None:
+    gyro = CloverleafGyro(seed=1)
+    old = _step_design(np.array([1.0, 1.0, 0.0]))  # the previous local design, ±0.25 V
+    new = np.array([1.5, 1.4, 0.0])  # the next answer, verified there: out of 0.375 V
+    known = _known_at(gyro, [*old, new])
+    assert not known.meets_rank(new, 0.375, "auto")
+    # distances (largest |Δv|): the up-steps 0.4 and 0.5, the centre 0.5, B2's down-step 0.65,
+    # B1's 0.75; the quadratic law's five levels are met at B2's down-step
+    assert known.rank_reach(new, "auto") == pytest.approx(0.65)
+    assert known.meets_rank(new, known.rank_reach(new, "auto") or 0.0, "auto")
+    assert known.rank_reach(new, "linear") == pytest.approx(0.5)  # three biases not on a line
+    # B2 never stepped: no radius meets the rank
+    along = np.array([1.5, 1.0, 0.0])
+    assert _known_at(gyro, [old[0], old[1], along]).rank_reach(along, "linear") is None
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    move=st.tuples(st.floats(-1.0, 1.0, allow_nan=False), st.floats(-1.0, 1.0, allow_nan=False)),
+    law=st.sampled_from(["auto", "linear"]),
+)
+def test_no_smaller_radius_meets_the_rank_than_the_reach(move, law) -> None:
+    """Property: the sweeps within the reach meet (6), those strictly inside it do not."""
+    gyro = CloverleafGyro(seed=1)
+    new = np.array([1.0 + move[0], 1.0 + move[1], 0.0])
+    known = _known_at(gyro, [*_step_design(np.array([1.0, 1.0, 0.0])), new])
+    reach = known.rank_reach(new, law)
+    assert reach is not None and known.meets_rank(new, reach, law)
+    assert not known.meets_rank(new, reach - 2 * SAME_V, law)
 
 
 @settings(max_examples=25, deadline=None)
