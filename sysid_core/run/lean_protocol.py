@@ -144,10 +144,10 @@ class LeanProtocol(Protocol):
         todo: Sequence[int] = range(len(design))  # the first design whole; later, what lacks
         if it > 1:
             todo = self.known.completing(bias, radius, law, design, ctx.space.index, apart)
-            todo = [j for j in todo if not self.known.has(design[j])]
-            if chord and (wide := self._reach(it, bias, apart, todo)):
-                return wide
-        for j in (j for j in todo if not self.known.has(design[j])):
+        todo = [j for j in todo if not self.known.has(design[j])]
+        if it > 1 and chord and (wide := self._reach(it, bias, apart, todo)):
+            return wide
+        for j in todo:
             self._learn(design[j], folder / f"exp{j}.nc")
         return radius
 
