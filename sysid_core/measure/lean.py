@@ -59,6 +59,7 @@ __all__ = [
     "MAX_HALF_POINTS",
     "POINTS_PER_BANDWIDTH",
     "RESOLVED_STEP",
+    "SCOUT_MIN_POINTS",
     "SCOUT_SPLITS",
     "ModeGuess",
     "anchor_reach",
@@ -76,6 +77,12 @@ __all__ = [
 SCOUT_SPLITS = 0.5
 #: ... and by at least this many bandwidths.
 SCOUT_BANDWIDTHS = 10.0
+#: Fewest points of a scout. It only has to locate the modes (the evidence a band sweep must
+#: show, at the locating step), and its one-bias fit has 25 unknowns in 8 real equations a point;
+#: 8 points, one acquisition of an eight-tone lock-in, are what every eight-tone run's scouts
+#: have held. With one tone, 8 instead of ``MIN_POINTS`` (11) saves 3 dwells a scout: a median of
+#: 15-20 dwells a run (docs/studies/information.md, "Scouts of eight points").
+SCOUT_MIN_POINTS = 8
 #: Most points of a lean run's whole-band sweep (it only locates the modes); ``[experiment]
 #: locate_points`` sets it (31: less time, less accurate in the lab:
 #: docs/studies/bench-time-lab.md).
@@ -99,7 +106,7 @@ def scout_grid(guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
     the windows would cover most of it): ``m = σ + SCOUT_BANDWIDTHS × bw`` when the guess
     carries an uncertainty ``σ`` (the move expected from the electrodes stepped before),
     else ``max(SCOUT_SPLITS × split, SCOUT_BANDWIDTHS × bw)``; in whole acquisitions
-    (:func:`~sysid_core.measure.sweeps.acquisition_grid`).
+    (:func:`~sysid_core.measure.sweeps.acquisition_grid`), at least :data:`SCOUT_MIN_POINTS`.
     """
     f, bw = guess.frequencies_hz, guess.bandwidth_hz
     sigma = float(guess.uncertainty_hz.max())
@@ -112,7 +119,7 @@ def scout_grid(guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
         windows = [(windows[0][0], windows[1][1])]
     if sum(hi - lo for lo, hi in windows) >= 0.8 * (bhi - blo):
         windows = [(blo, bhi)]
-    points = acquisition_grid(windows, plan.resolution_hz, plan.tones)
+    points = acquisition_grid(windows, plan.resolution_hz, plan.tones, fewest=SCOUT_MIN_POINTS)
     return merge(points, 1e-9 * float(f.max()))
 
 

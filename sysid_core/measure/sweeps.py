@@ -89,30 +89,32 @@ def grid(lo: float, hi: float, step: float) -> np.ndarray:
     return lo + step * np.arange(n_points(lo, hi, step))
 
 
-def fewest_points(tones: int = 1) -> int:
-    """Fewest points of a lean sweep: :data:`MIN_POINTS` in the nearest whole acquisitions.
+def fewest_points(tones: int = 1, least: int = MIN_POINTS) -> int:
+    """Fewest points of a lean sweep: ``least`` in the nearest whole acquisitions.
 
-    An acquisition costs the same with one point as with all its ``tones``: 11 points with one
-    tone, 8 with eight (one acquisition), 12 with four.
+    An acquisition costs the same with one point as with all its ``tones``: with ``least`` =
+    :data:`MIN_POINTS`, 11 points with one tone, 8 with eight (one acquisition), 12 with four.
     """
     tones = max(int(tones), 1)
-    return tones * max(1, math.floor(MIN_POINTS / tones + 0.5))
+    return tones * max(1, math.floor(int(least) / tones + 0.5))
 
 
 def acquisition_grid(
-    windows: Sequence[tuple[float, float]], step: float, tones: int = 1
+    windows: Sequence[tuple[float, float]], step: float, tones: int = 1, fewest: int | None = None
 ) -> np.ndarray:
     """Points over ``windows`` (low, high; ascending, apart) at ``step``, in whole acquisitions.
 
-    At least :data:`MIN_POINTS`. On a device that measures ``tones`` points per acquisition,
-    as many as fill the nearest whole number of acquisitions, evenly over each window in
-    proportion to its width: an acquisition costs the same with one point as with all its
-    tones, so the last one is filled, or dropped when only a few points would spill into it
+    At least :data:`MIN_POINTS`, or ``fewest`` when given (a scout's floor), in the nearest whole
+    acquisitions (:func:`fewest_points`). On a device that measures ``tones`` points per
+    acquisition, as many as fill the nearest whole number of acquisitions, evenly over each
+    window in proportion to its width: an acquisition costs the same with one point as with all
+    its tones, so the last one is filled, or dropped when only a few points would spill into it
     (25 points with 8 tones are 24: three acquisitions instead of four; 11 are 8).
     """
     n = sum(n_points(lo, hi, step) for lo, hi in windows)
     tones = max(int(tones), 1)
-    target = max(tones * math.floor(n / tones + 0.5), fewest_points(tones))
+    least = fewest_points(tones, MIN_POINTS if fewest is None else fewest)
+    target = max(tones * math.floor(n / tones + 0.5), least)
     if target == n:
         return np.concatenate([grid(lo, hi, step) for lo, hi in windows])
     if tones == 1:  # too few: evenly over the span of the windows

@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sysid_core.clock.benchtime import acquisitions
-from sysid_core.measure.lean import ModeGuess, scout_grid
+from sysid_core.measure.lean import SCOUT_MIN_POINTS, ModeGuess, scout_grid
 from sysid_core.measure.sweeps import MIN_POINTS, SweepPlan, acquisition_grid, grid, n_points
 
 
@@ -60,12 +60,12 @@ def test_whole_acquisitions_within_half_an_acquisition_of_the_grid(
 
 def test_a_scout_of_eleven_points_with_eight_tones_is_one_acquisition() -> None:
     """Two modes 1 Hz apart at a 0.5 Hz resolution: the scout's windows hold 11 points, which
-    take two acquisitions of 8 tones for 3 points in the second; 8 points take one. With 13
-    tones the 11 points fill one acquisition of 13."""
+    take two acquisitions of 8 tones for 3 points in the second; 8 points take one, and are a
+    one-tone scout's floor too. With 13 tones the 11 points fill one acquisition of 13."""
     guess = ModeGuess.of([4400.0, 4401.0], [0.05, 0.05])
     plan = SweepPlan((4300.0, 4500.0), 0.5, 6.0, 0.05, 6.0, 0.05, 20_000)
     one = scout_grid(guess, plan)
-    assert one.size == MIN_POINTS
+    assert one.size == SCOUT_MIN_POINTS < MIN_POINTS
     eight = scout_grid(guess, dataclasses.replace(plan, tones=8))
     assert eight.size == 8 and acquisitions(eight.size, 8) == 1
     assert eight.min() >= one.min() and eight.max() <= one.max()
