@@ -80,8 +80,8 @@ SCOUT_BANDWIDTHS = 10.0
 #: Fewest points of a scout. It only has to locate the modes (the evidence a band sweep must
 #: show, at the locating step), and its one-bias fit has 25 unknowns in 8 real equations a point;
 #: 8 points, one acquisition of an eight-tone lock-in, are what every eight-tone run's scouts
-#: have held. With one tone, 8 instead of ``MIN_POINTS`` (11) saves 3 dwells a scout: a median of
-#: 15-20 dwells a run (docs/studies/information.md, "Scouts of eight points").
+#: have held. With one tone, 8 instead of ``MIN_POINTS`` (11) saves 3 dwells a scout: 12-15 of
+#: the median run on our random gyros (docs/studies/information.md, "Scouts of eight points").
 SCOUT_MIN_POINTS = 8
 #: Most points of a lean run's whole-band sweep (it only locates the modes); ``[experiment]
 #: locate_points`` sets it (31: less time, less accurate in the lab:
