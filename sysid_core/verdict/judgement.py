@@ -69,7 +69,7 @@ from sysid_core.measure.verification import Verification
 from sysid_core.model.fitted import FittedModel
 from sysid_core.tuning.confidence import split_interval
 from sysid_core.tuning.criteria import Goal, TuningCriterion
-from sysid_core.verdict.dacfloor import budget_drift_hz, dac_floor, dac_reached, least_split
+from sysid_core.verdict.dacfloor import budget_drift_hz, dac_floor, dac_reached, split_estimate
 
 __all__ = [
     "BLIND",
@@ -290,9 +290,9 @@ def verdict(
         previous, bias, info = dac
         again = previous is not None and np.array_equal(np.asarray(previous), bias)
         floor = dac_floor(info, acceptance_hz) if again else None
-        if floor is not None:  # the windows' bound and the drift only where they can decide
-            least, moves = least_split(ver, end, tracker), budget_drift_hz(tracker, end, afford)
-            stop = dac_reached(again, floor, fraction * acceptance_hz, least, moves)
+        if floor is not None:  # the windows' estimate and the drift only where they can decide
+            split, moves = split_estimate(ver, end, tracker), budget_drift_hz(tracker, end, afford)
+            stop = dac_reached(again, floor, fraction * acceptance_hz, split, moves)
     if not converged and stop is None and end is not None and tracker and afford is not None:
         stop = floored(tracker, afford, fraction * acceptance_hz, end)
     return goals, converged, stop
