@@ -227,7 +227,7 @@ def _applied(
     """``result`` at the DAC code ``model`` predicts best, checked, with its region."""
     moved = "unreachable" in result.info
     chosen = dataclasses.replace(result)  # the criterion's, before the DAC code
-    apply_best_code(model, result, space, device)
+    apply_best_code(model, result, space, device, search=not moved)
     bias = check_bias(device.device, result.bias)
     # the region is about the answer (where the truth is); its split range is at the voltages
     # that will really be applied
