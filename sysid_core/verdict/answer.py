@@ -28,7 +28,7 @@ from sysid_core.tuning.criteria import (
     solve_criterion,
 )
 from sysid_core.verdict.dac import apply_best_code
-from sysid_core.verdict.dacfloor import dac_floor
+from sysid_core.verdict.dacfloor import DAC_FLOOR_SHARE, dac_floor
 from sysid_core.verdict.trust import (
     beyond_tuning,
     untrusted_step,
@@ -126,7 +126,7 @@ def answer(
                 reoffer,
             )
             local = model
-    step = _applied(result, local, model, space, device)
+    step = _applied(result, local, model, space, device, acceptance_hz)
     limit = bias_step if local_step is None else local_step
     band = device.device.band_hz
     stray = beyond_tuning(
@@ -223,11 +223,19 @@ def _applied(
     model: FittedModel,
     space: BiasSpace,
     device: GuardedDevice,
+    acceptance_hz: float | None = None,
 ) -> Answer:
-    """``result`` at the DAC code ``model`` predicts best, checked, with its region."""
+    """``result`` at the DAC code ``model`` predicts best, checked, with its region.
+
+    The codes along the degenerate set are searched (:func:`~sysid_core.verdict.dac.best_code`)
+    for an answer of the criterion that was not moved into reach, where the best code one step
+    around it leaves :data:`~sysid_core.verdict.dacfloor.DAC_FLOOR_SHARE` of ``acceptance_hz``
+    or more: where the DAC limits the answer.
+    """
     moved = "unreachable" in result.info
     chosen = dataclasses.replace(result)  # the criterion's, before the DAC code
-    apply_best_code(model, result, space, device, search=not moved)
+    over = None if moved or acceptance_hz is None else DAC_FLOOR_SHARE * acceptance_hz
+    apply_best_code(model, result, space, device, search_over=over)
     bias = check_bias(device.device, result.bias)
     # the region is about the answer (where the truth is); its split range is at the voltages
     # that will really be applied

@@ -12,7 +12,9 @@ With more tuned electrodes than the two goals need, the degenerate biases form a
 the answer, and the DAC's lattice passes closer to it somewhere along it than at the answer: a
 22 kHz gyro with four electrodes, whose codes one step around the answer leave 1.09 mHz at best
 (true), has codes 4 steps away at 0.27 mHz and 15 away at 0.20 (true; the model predicts 1.13,
-0.26 and 0.16). So the search (:func:`split_code`) scores every code of a box of
+0.26 and 0.16). So where the codes one step around an answer at degenerate modes leave half
+the acceptance or more (where the run says the DAC limits the answer), the search
+(:func:`split_code`) scores every code of a box of
 :data:`SEARCHED_CODES` around the answer's nearest code by the split the model expects there:
 the square of its prediction plus the variance the fit's covariance gives the change of the
 split from the answer to that code (the law's slopes are known only so well, and their error
@@ -53,7 +55,7 @@ __all__ = [
 MAX_ELECTRODES = 8
 #: The most codes :func:`split_code` scores: a box of ``(2 K + 1)**n`` codes, ``K`` as large as
 #: this allows (:func:`search_reach`: 364 codes each way with two tuned electrodes, 13 with
-#: four, 4 with six, 2 with eight). A bound on the work (a second per answer on 2 cores), not
+#: four, 4 with six, 2 with eight). A bound on the work (0.3-0.4 s per answer here), not
 #: on the model: the covariance, not the box, would stop a model whose law is uncertain.
 SEARCHED_CODES = 9**6
 #: The codes of the box scored by the model's own law, the best by its tangent at the answer.
@@ -163,18 +165,18 @@ def best_code(
     result: TuningResult,
     space: BiasSpace,
     device: object,
-    search: bool = False,
+    search_over: float | None = None,
 ) -> np.ndarray | None:
     """The DAC code around ``result.bias`` that the model expects best, or ``None``.
 
     ``None`` when the device states no resolution or cannot say what it applies, or with more
-    than :data:`MAX_ELECTRODES` tuned electrodes. With ``search`` (an answer at degenerate
-    modes, the criterion's own), :func:`split_code`. Otherwise (a target frequency, a step the
-    run chose, an answer moved into reach) the codes one step up, none or one down on each tuned
-    electrode (codes outside the device's limits are skipped: ``applied_bias`` refuses them),
-    by the predicted split or, for a ``target_hz``, the largest frequency error; ties go to the
-    code nearest the answer. A step or a stay is not a point of degenerate modes: a search
-    would move it to one.
+    than :data:`MAX_ELECTRODES` tuned electrodes. The codes one step up, none or one down on
+    each tuned electrode (codes outside the device's limits are skipped: ``applied_bias``
+    refuses them), by the predicted split or, for a ``target_hz``, the largest frequency error;
+    ties go to the code nearest the answer. Where the best of them is predicted to leave
+    ``search_over`` (Hz) or more, and the answer has no ``target_hz``, :func:`split_code`
+    searches further (``search_over`` is given for an answer at degenerate modes, the
+    criterion's own: a step or a stay is not one, and a search would move it to one).
     """
     step = bias_resolution(device)
     index = space.index
@@ -182,8 +184,6 @@ def best_code(
         return None
     bias = np.asarray(result.bias, dtype=float)
     target = result.info.get("target_hz")
-    if search and target is None:
-        return split_code(model, bias, space, device, step)
     codes, distance = [], []
     for offsets in itertools.product((-1.0, 0.0, 1.0), repeat=len(index)):
         candidate = bias.copy()
@@ -202,6 +202,10 @@ def best_code(
     else:
         score = f[:, 1] - f[:, 0]
     best = float(score.min())
+    if target is None and search_over is not None and best >= search_over:
+        found = split_code(model, bias, space, device, step)
+        if found is not None:
+            return found
     tied = np.flatnonzero(score <= best + 1e-9 * max(abs(best), 1e-12) + 1e-15)
     choice = tied[np.argmin(np.asarray(distance)[tied])]
     return applied_codes[choice]
@@ -212,10 +216,10 @@ def apply_best_code(
     result: TuningResult,
     space: BiasSpace,
     device: GuardedDevice,
-    search: bool = False,
+    search_over: float | None = None,
 ) -> None:
-    """Move ``result`` to the DAC code the model expects best (:func:`best_code`, ``search``)."""
-    code = best_code(model, result, space, device, search)
+    """Move ``result`` to the DAC code the model expects best (:func:`best_code`)."""
+    code = best_code(model, result, space, device, search_over)
     if code is None or np.array_equal(code, result.bias):
         return
     rounded = applied_bias(device.device, np.asarray(result.bias, dtype=float))

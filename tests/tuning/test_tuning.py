@@ -370,7 +370,7 @@ def test_best_dac_code_is_a_code_near_the_answer_and_predicted_best(
     tuned = ["B1", "B2", "B3"]
     model, sp = exact_model(truth, tuned), space(truth, tuned)
     answer = MinMaxBias(solver=SOLVER).solve(model, sp)
-    code = best_code(model, answer, sp, device, search=True)
+    code = best_code(model, answer, sp, device, search_over=0.0)  # search at any split
     assert code is not None
     np.testing.assert_array_equal(device.applied_bias(code), code)
     step, reach = device.bias_resolution, search_reach(len(tuned))
@@ -394,8 +394,10 @@ def test_best_dac_code_is_a_code_near_the_answer_and_predicted_best(
     assert split(code)[0] <= split(centre + step * offsets).min() + 1e-12
     assert split(code)[0] <= split(np.array(neighbours)).min() + 1e-12
     assert split(np.array(neighbours)).min() > 3 * split(code)[0]
-    assert best_code(model, answer, sp, CloverleafGyro(dac_bits=0), search=True) is None
-    # without the search (a step, a stay): a neighbour of the answer, the best of them
+    assert best_code(model, answer, sp, CloverleafGyro(dac_bits=0), search_over=0.0) is None
+    # without the search (a step, a stay), or where the neighbours leave less than asked: the
+    # best neighbour of the answer
     near = best_code(model, answer, sp, device)
+    assert np.array_equal(best_code(model, answer, sp, device, search_over=1.0), near)
     assert near is not None and np.all(np.abs(near - answer.bias) <= step * (1 + 1e-9))
     assert split(near)[0] <= split(np.array(neighbours)).min() + 1e-12
