@@ -39,6 +39,7 @@ __all__ = [
     "DEFAULT_SAMPLES",
     "confidence_region",
     "split_interval",
+    "stiffness_draws",
     "stiffness_vector",
 ]
 
@@ -62,6 +63,25 @@ def stiffness_vector(model: FittedModel) -> np.ndarray:
     for kp in model.Kp:
         values += entries(kp)
     return np.array(values)
+
+
+def stiffness_draws(
+    model: FittedModel, samples: int, seed: int = 0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``M``, ``K0`` and ``K_p`` of ``samples`` models drawn from a linear model's covariance.
+
+    Shapes ``(S, 2, 2)``, ``(S, 2, 2)`` and ``(S, n_e, 2, 2)``; the draws use ``seed``. The
+    model must have a :attr:`~sysid_core.model.fitted.FittedModel.stiffness_factor` and a law
+    linear in ``w`` (:meth:`~sysid_core.model.fitted.FittedModel.linearized` makes one).
+    """
+    factor = model.stiffness_factor
+    if factor is None:
+        raise ValueError("the model has no covariance (a minimax fit): nothing to draw from")
+    n_e = len(model.electrodes)
+    z = np.random.default_rng(seed).standard_normal((samples, factor.shape[1]))
+    draws = stiffness_vector(model) + z @ factor.T
+    kp = sym(draws[:, 6 : 6 + 3 * n_e].reshape(samples, n_e, 3))
+    return sym(draws[:, 0:3]), sym(draws[:, 3:6]), kp
 
 
 def _split_hz(t: float | np.ndarray, r: float | np.ndarray) -> np.ndarray:
@@ -146,16 +166,7 @@ def confidence_region(
         raise ValueError(
             f"the model's electrodes {model.electrodes} are not the tuned ones {space.tuned}"
         )
-    n_e = n_t
-
-    # Draws of the stiffness parameters.
-    phi = stiffness_vector(model)
-    factor = model.stiffness_factor
-    z = np.random.default_rng(seed).standard_normal((samples, factor.shape[1]))
-    draws = phi + z @ factor.T
-    m = sym(draws[:, 0:3])
-    k0 = sym(draws[:, 3:6])
-    kp = sym(draws[:, 6:].reshape(samples, n_e, 3))  # (S, n_e, 2, 2)
+    m, k0, kp = stiffness_draws(model, samples, seed)
     t, d, t0, d0 = _trace_deviation_at(model, m, k0, kp, w_hat)
 
     # Where the split is predicted: the applied bias if the device says, and the ellipse of d.

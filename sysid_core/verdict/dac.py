@@ -29,13 +29,12 @@ import itertools
 
 import numpy as np
 
-from sysid_core.conic.program import sym
 from sysid_core.data.schema import squared_potentials
 from sysid_core.device.capabilities import read_capabilities
 from sysid_core.device.measuring import GuardedDevice, applied_bias
 from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import modal_frequencies_hz, normalised_stiffness, trace_deviation
-from sysid_core.tuning.confidence import stiffness_vector
+from sysid_core.tuning.confidence import stiffness_draws
 from sysid_core.tuning.criteria import BiasSpace, TuningResult, frequencies_from_w
 
 __all__ = [
@@ -95,15 +94,10 @@ def _slopes(model: FittedModel, w_answer: np.ndarray) -> tuple[np.ndarray, np.nd
     is ``δwᵀ C δw``; ``C`` (``(n, n)``) is returned second, None without a covariance.
     """
     tangent = model.linearized(w_answer)
-    n = len(w_answer)
     _, slope = trace_deviation(normalised_stiffness(tangent.M[None], np.asarray(tangent.Kp)[None]))
-    factor = tangent.stiffness_factor
-    if factor is None:
+    if tangent.stiffness_factor is None:
         return slope[0], None
-    phi = stiffness_vector(tangent)
-    z = np.random.default_rng(0).standard_normal((CODE_DRAWS, factor.shape[1]))
-    draws = phi + z @ factor.T
-    m, kp = sym(draws[:, 0:3]), sym(draws[:, 6 : 6 + 3 * n].reshape(CODE_DRAWS, n, 3))
+    m, _, kp = stiffness_draws(tangent, CODE_DRAWS)
     _, slopes = trace_deviation(normalised_stiffness(m, kp))  # (draws, n, 2)
     spread = np.cov(slopes[:, :, 0], rowvar=False) + np.cov(slopes[:, :, 1], rowvar=False)
     return slope[0], np.atleast_2d(spread)
