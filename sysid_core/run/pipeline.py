@@ -53,7 +53,7 @@ from sysid_core.run.components import build_components
 from sysid_core.run.config import PipelineConfig
 from sysid_core.run.plots import PLOT_FORMATS, plot_bias_path, plot_iteration
 from sysid_core.run.protocols import RunContext, make_protocol
-from sysid_core.run.record import IterationRecord, Least, failed_in_a_row, verified_splits
+from sysid_core.run.record import IterationRecord, Seen, failed_in_a_row, seen_so_far
 from sysid_core.run.summary import RunSummary, summarize
 from sysid_core.run.timeline import plot_timeline
 from sysid_core.tuning.criteria import BiasSpace, ConfidenceRegion
@@ -229,7 +229,7 @@ class TuningRun:
                 ds, model = self._identify(it, bias, folder, center, split)
                 fit_time = time.perf_counter() - t0
                 now = self._track(it, model, ds) if self.tracking else model
-                step = self._answer(it, now, bias, folder, verified_splits(history))
+                step = self._answer(it, now, bias, folder, seen_so_far(history))
                 # the fit of every sweep, if the local one fell short
                 now = step.model if step.model is not None else now
                 ver = self.protocol.verify(step.bias, step.result, now, folder)
@@ -330,9 +330,9 @@ class TuningRun:
         return now
 
     def _answer(
-        self, it: int, model: FittedModel, bias: np.ndarray, folder: Path, seen: tuple[Least, Least]
+        self, it: int, model: FittedModel, bias: np.ndarray, folder: Path, seen: Seen
     ) -> Answer:
-        """Step 3 at ``bias``, told the least and the latest split verified (``seen``)."""
+        """Step 3 at ``bias``, told what the run verified so far (``seen``)."""
         sp = self.space
         space = BiasSpace(self.electrodes, sp.tuned, bias, sp.limits, sp.structure_potential)
 
@@ -352,8 +352,7 @@ class TuningRun:
             say=self.say,
             every_sweep=every_sweep,
             acceptance_hz=self.config.tuning.acceptance_hz,
-            least_measured=seen[0],
-            latest_measured=seen[1],
+            **seen,
             local_fit=self.protocol.local,
             reoffer=self.protocol.offered is not None,
         )

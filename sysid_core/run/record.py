@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 import xarray as xr
@@ -23,9 +23,12 @@ from sysid_core.tuning.criteria import Goal, TuningResult
 __all__ = [
     "IterationRecord",
     "Least",
+    "Seen",
     "failed_in_a_row",
+    "last_linearised",
     "latest_measured",
     "least_measured",
+    "seen_so_far",
     "verified_splits",
 ]
 
@@ -166,6 +169,35 @@ def failed_in_a_row(history: list[IterationRecord]) -> int:
             break
         count += 1
     return count
+
+
+def last_linearised(history: list[IterationRecord]) -> tuple[dict[str, float] | None, float | None]:
+    """The latest linearised step's ``trust_region`` entry and the split then verified there.
+
+    ``(None, None)`` before any (:func:`~sysid_core.verdict.trust.trust_radius` reads them).
+    """
+    for h in reversed(history):
+        if "trust_region" in h.tuning:
+            split = h.measured_split_hz if h.verification == "verified" else None
+            return h.tuning["trust_region"], None if split is None else float(split)
+    return None, None
+
+
+class Seen(TypedDict):
+    """What an answer (:func:`sysid_core.verdict.answer.answer`) is told of the run so far."""
+
+    least_measured: Least
+    latest_measured: Least
+    linearised: tuple[dict[str, float] | None, float | None]
+
+
+def seen_so_far(history: list[IterationRecord]) -> Seen:
+    """:func:`least_measured`, :func:`latest_measured` and :func:`last_linearised`."""
+    return Seen(
+        least_measured=least_measured(history),
+        latest_measured=latest_measured(history),
+        linearised=last_linearised(history),
+    )
 
 
 def verified_splits(history: list[IterationRecord]) -> tuple[Least, Least]:

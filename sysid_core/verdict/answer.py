@@ -31,6 +31,7 @@ from sysid_core.verdict.dac import apply_best_code
 from sysid_core.verdict.dacfloor import DAC_FLOOR_SHARE, dac_floor
 from sysid_core.verdict.trust import (
     beyond_tuning,
+    trust_radius,
     untrusted_step,
     worse_than_measured,
 )
@@ -81,6 +82,7 @@ def answer(
     local_step: float | None = None,
     local_fit: bool = False,
     reoffer: bool = False,
+    linearised: tuple[dict[str, float] | None, float | None] = (None, None),
 ) -> Answer:
     """The answer of iteration ``it`` (see the module).
 
@@ -93,7 +95,10 @@ def answer(
     support is not applied (:mod:`sysid_core.verdict.trust`): the run goes back to the least
     measured split's bias, or takes the linearised step from the latest verified bias
     (``latest_measured``), no longer than the local design's step (``local_step``, else
-    ``bias_step``); from a model of the sweeps near the bias only (``local_fit``), at any split.
+    ``bias_step``) at first, then as far as the trust region reaches
+    (:func:`~sysid_core.verdict.trust.trust_radius` of the last such step and the split verified
+    after it, ``linearised``); from a model of the sweeps near the bias only (``local_fit``), at
+    any split.
     A run that tunes a pair of its electrodes and can offer the others again (``reoffer``)
     concludes no "unreachable" (:func:`best_effort`).
     """
@@ -161,6 +166,7 @@ def answer(
             "measured_split_hz": float(measured),
         }
         return Answer(result, bias, True, model)
+    radius = trust_radius(*linearised, limit)
     untrusted = (
         None
         if criterion.name != "degenerate" or acceptance_hz is None
@@ -170,7 +176,7 @@ def answer(
             latest_measured,
             space.index,
             acceptance_hz,
-            limit,
+            radius,
             near_acceptances,
             None if step.result.confidence is None else step.result.confidence.split_ci_hz[1],
             local_fit,
@@ -187,6 +193,12 @@ def answer(
         )
         result, bias = _stepped(bias, space, model, criterion.name, device)
         result.info["untrusted_answer"] = [float(b) for b in step.bias]
+        result.info["trust_region"] = {
+            "radius_v": float(radius),
+            "length_v": float(np.max(np.abs(bias[space.index] - b0))),
+            "from_split_hz": float(latest_measured[0]),  # type: ignore[index]
+            "predicted_split_hz": float(result.split_hz),
+        }
         step = Answer(result, bias, True, model)
     floor = dac_floor(step.result.info, acceptance_hz)
     if floor is not None and acceptance_hz is not None:

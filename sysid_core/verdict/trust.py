@@ -23,7 +23,10 @@ the run swept. Three rules keep the run from stepping where its data do not reac
   another point of a whole set of degenerate biases (more electrodes than the two goals
   need), or the law carried where no sweep measured it. The run takes the linearised step
   instead (no longer than ``bias_step``), which the data around the verified bias support,
-  and measures the local design there.
+  and measures the local design there. How far it goes is a trust region
+  (:func:`trust_radius`): the local design's step at first, twice the last radius after a step
+  to its edge whose measured split fell by at least three quarters of what the model predicted
+  there, and the local design's step again after one whose split fell by less than a quarter.
 
 And one rule for a model's verdict that the modes cannot meet: :func:`unsure_unreachable`, the
 least split the model's 95 % region holds at its best reachable bias. A verdict whose region
@@ -46,6 +49,7 @@ __all__ = [
     "WORSE_ACCEPTANCES",
     "beyond_tuning",
     "linearised_step",
+    "trust_radius",
     "unsure_unreachable",
     "untrusted_step",
     "worse_than_measured",
@@ -67,6 +71,17 @@ TUNING_REACH = 2.0
 #: An answer further from a near verified bias than this many times the linearised step is not
 #: the local correction (its curvature term would be as large as the step itself).
 BEYOND_LINEAR = 2.0
+#: The trust region of the linearised step (:func:`trust_radius`) grows by this factor after a
+#: step to its edge whose split fell by at least :data:`AGREED` of the fall its model predicted,
+#: and returns to the local design's step after one whose split fell by less than
+#: :data:`DISAGREED` of it: the textbook trust-region update (Nocedal & Wright, *Numerical
+#: Optimization*, 2nd ed., Algorithm 4.1, with its factors 2, 3/4 and 1/4).
+GROW = 2.0
+AGREED = 0.75
+DISAGREED = 0.25
+#: A step whose largest change is this share of the radius or more went to its edge (the DAC
+#: code the step is applied at moves it by a code).
+EDGE = 0.9
 
 
 def worse_than_measured(
@@ -159,6 +174,46 @@ def linearised_step(model: FittedModel, b0: np.ndarray, h: float) -> np.ndarray:
             - split_vector_hz(model.M, model.stiffness(b0 - e))
         ) / (2 * h)
     return np.asarray(-np.linalg.lstsq(jac, s0, rcond=None)[0], dtype=float)
+
+
+def trust_radius(last: dict[str, float] | None, measured_hz: float | None, start: float) -> float:
+    """The radius (V) of the next linearised step, from the last one the run took.
+
+    Parameters
+    ----------
+    last : dict or None
+        The ``trust_region`` entry of the latest linearised step's answer: ``radius_v`` (the
+        radius it was taken with), ``length_v`` (its largest change), ``from_split_hz`` (the
+        split verified where it started) and ``predicted_split_hz`` (its model's split where it
+        ended). None: no linearised step yet.
+    measured_hz : float or None
+        The split then verified where it ended (None: not verified).
+    start : float
+        The local design's step (V): the first radius, and the radius after a step whose split
+        did not fall as predicted.
+
+    Returns
+    -------
+    float
+        ``GROW × radius_v`` after a step to the edge (:data:`EDGE`) whose split fell by at least
+        :data:`AGREED` of the predicted fall; ``start`` after one that fell by less than
+        :data:`DISAGREED` of it (or rose, or was not verified); else ``radius_v``. A run whose
+        model predicts each step well then crosses volts in a few steps instead of a quarter
+        volt at a time.
+    """
+    if last is None:
+        return start
+    if measured_hz is None or not np.isfinite(measured_hz):
+        return start
+    promised = last["from_split_hz"] - last["predicted_split_hz"]
+    if promised <= 0:
+        return start
+    ratio = (last["from_split_hz"] - measured_hz) / promised
+    if ratio < DISAGREED:
+        return start
+    if ratio >= AGREED and last["length_v"] >= EDGE * last["radius_v"]:
+        return GROW * last["radius_v"]
+    return max(last["radius_v"], start)
 
 
 def beyond_tuning(
