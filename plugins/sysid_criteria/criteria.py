@@ -28,6 +28,20 @@ def _fmt(bias: np.ndarray) -> str:
     return "[" + ", ".join(f"{b:.4f}" for b in bias) + "] V"
 
 
+def _start_w(space: BiasSpace) -> np.ndarray:
+    """The squared potentials of the tuned electrodes at ``space``'s start bias.
+
+    With more tuned electrodes than the goals need, the optimal biases form a set, and the
+    criteria return its point nearest these (:func:`~sysid_core.tuning.spread.solve_spread`):
+    from 0 V the smallest biases; in a tuning run, the least change from the bias it is at,
+    where its model's law was measured (an answer that moves along the set from one iteration
+    to the next carries the law's error along it: random gyros that tuned six electrodes took
+    292-389 dwells with the smallest biases and 125-228 with the least change,
+    ``docs/studies/trust-region.md``).
+    """
+    return (np.asarray(space.start_bias, dtype=float)[space.index] - space.structure_potential) ** 2
+
+
 class _Base(TuningCriterion):
     """Shared by the three: the conic ``solver`` (the run's, with its options) and a tolerance.
 
@@ -66,7 +80,7 @@ class Degenerate(_Base):
 
     ``min t`` s.t. ``lam M ⪯ K(w) ⪯ (lam + t) M`` over the reachable box of ``w``. With more
     electrodes than needed, among the degenerate points (within 1e-5 Hz of the least spread) the
-    one closest to the electrodes at ground (``w = v_gyro**2``) is returned: the smallest biases.
+    one closest to the start bias (:func:`_start_w`) is returned: from 0 V, the smallest biases.
 
     Parameters
     ----------
@@ -82,7 +96,7 @@ class Degenerate(_Base):
 
     def solve(self, model: FittedModel, space: BiasSpace) -> TuningResult:
         box = space.box()
-        anchor = np.full(len(space.tuned), space.structure_potential**2)
+        anchor = _start_w(space)
         w, _ = solve_spread(model, box, self.solver, anchor_w=anchor)
         res = self._result(model, space, w, 0.0)
         res.value = res.split_hz
@@ -101,7 +115,8 @@ class Target(_Base):
     """Both modes at a target frequency (eq. 23, bounding the frequency error directly).
 
     ``min t`` s.t. ``(w0^2 - t) M ⪯ K(w) ⪯ (w0^2 + t) M``: the modal frequencies lie within
-    ``sqrt(w0^2 ± t)``. The frequency error reported is ``max_i |f_i - target_hz|``.
+    ``sqrt(w0^2 ± t)``. The frequency error reported is ``max_i |f_i - target_hz|``. With more
+    electrodes than needed, the optimal point closest to the start bias (:func:`_start_w`).
 
     Parameters
     ----------
@@ -141,7 +156,7 @@ class Target(_Base):
     def solve(self, model: FittedModel, space: BiasSpace) -> TuningResult:
         box = space.box()
         lam0 = (2 * np.pi * self.target_hz) ** 2
-        anchor = np.full(len(space.tuned), space.structure_potential**2)
+        anchor = _start_w(space)
         w, _ = solve_spread(model, box, self.solver, target_lam=lam0, anchor_w=anchor)
         res = self._result(model, space, w, 0.0, target_hz=self.target_hz)
         res.value = float(np.max(np.abs(res.frequencies_hz - self.target_hz)))

@@ -107,6 +107,33 @@ def test_min_max_bias_is_smaller_than_degenerate(truth: GyroTruth) -> None:
     assert np.max(np.abs(mm.bias)) < np.max(np.abs(deg.bias))
 
 
+def test_with_more_electrodes_the_answer_is_the_optimal_point_nearest_the_start(
+    truth: GyroTruth,
+) -> None:
+    """The exact model tuning B1-B3, whose degenerate biases are a curve: from 0 V the answer is
+    the point of the smallest biases, as before; from the curve's point where B3 is 3 V, that
+    point; from 50 mV off it, a point of the curve beside it, not the one nearest 0 V."""
+    import scipy.optimize
+
+    from sysid_core.model.modal import split_vector_hz
+
+    model, crit = exact_model(truth, ALL), Degenerate(solver=SOLVER)
+    zero = crit.solve(model, space(truth, ALL)).bias
+
+    def split(b12: np.ndarray) -> np.ndarray:
+        return split_vector_hz(model.M, model.stiffness([*b12, 3.0]))
+
+    other = np.array([*scipy.optimize.least_squares(split, zero[:2], xtol=1e-14).x, 3.0])
+    assert model.split_hz(other) < 1e-6 and np.max(np.abs(other - zero)) > 1.0
+    for start in (other, other + np.array([0.05, -0.05, 0.0])):
+        sp = BiasSpace(ALL, ALL, start, (-10.0, 10.0), truth.structure_potential)
+        res = crit.solve(model, sp)
+        assert res.split_hz < 1e-3
+        assert np.max(np.abs(res.bias - start)) < 0.1 < np.max(np.abs(res.bias - zero))
+    # from 0 V, biases smaller than those of the point at B3 = 3 V
+    assert np.linalg.norm(zero) < np.linalg.norm(other)
+
+
 def test_unreachable_target(truth: GyroTruth) -> None:
     sp = space(truth, ALL)
     with pytest.raises(UnreachableTuningError, match="4460") as info:
