@@ -79,8 +79,9 @@ BEYOND_LINEAR = 2.0
 GROW = 2.0
 AGREED = 0.75
 DISAGREED = 0.25
-#: A step whose largest change is this share of the radius or more went to its edge (the DAC
-#: code the step is applied at moves it by a code).
+#: A step whose largest change is this share of the radius or more went to its edge: the DAC
+#: code a step is applied at moves it by up to a code (under a tenth of the first radius, 0.25 V,
+#: for a DAC of 9 bits or more on ±10 V; with coarser codes the radius may not grow).
 EDGE = 0.9
 
 
@@ -128,7 +129,9 @@ def untrusted_step(
     tuned : list of int
         The positions of the model's electrodes among all.
     acceptance_hz, bias_step, near_acceptances : float
-        The acceptance, the local design's step (V) and how many acceptances count as near.
+        The acceptance, how far the step may go (V: the trust region's radius,
+        :func:`trust_radius`, at first the local design's step) and how many acceptances count
+        as near.
     region_upper_hz : float, optional
         The upper end of the split over the answer's 95 % region: over the latest measured
         split, the answer does not promise to improve on it.
@@ -197,9 +200,9 @@ def trust_radius(last: dict[str, float] | None, measured_hz: float | None, start
     float
         ``GROW × radius_v`` after a step to the edge (:data:`EDGE`) whose split fell by at least
         :data:`AGREED` of the predicted fall; ``start`` after one that fell by less than
-        :data:`DISAGREED` of it (or rose, or was not verified); else ``radius_v``. A run whose
-        model predicts each step well then crosses volts in a few steps instead of a quarter
-        volt at a time.
+        :data:`DISAGREED` of it (or rose, or was not verified); else ``radius_v`` (never under
+        ``start``). A run whose model predicts each step well then crosses volts in a few
+        steps instead of a quarter volt at a time.
     """
     if last is None:
         return start
