@@ -8,6 +8,7 @@ import numpy as np
 from annotated_types import Gt
 
 from sysid_core.conic.program import Solver
+from sysid_core.data.schema import squared_potentials
 from sysid_core.errors import ConfigError, SolverError, UnreachableTuningError
 from sysid_core.model.fitted import FittedModel
 from sysid_core.tuning.criteria import (
@@ -39,7 +40,7 @@ def _start_w(space: BiasSpace) -> np.ndarray:
     292-389 dwells with the smallest biases and 125-228 with the least change,
     ``docs/studies/trust-region.md``).
     """
-    return (np.asarray(space.start_bias, dtype=float)[space.index] - space.structure_potential) ** 2
+    return squared_potentials(space.structure_potential, np.asarray(space.start_bias)[space.index])
 
 
 class _Base(TuningCriterion):
