@@ -4,6 +4,9 @@ For measurement ``k`` (1, 2, ...) the device writes, atomically, ``request-000k.
 
     {"id": k, "electrodes": [...], "bias_v": [...], "frequencies_hz": [...]}
 
+(the frequencies increasing, as a sweep file holds them, whatever order the run asked for: the
+answer's time stamps, if it has any, say when each point was measured)
+
 and waits for the answer: ``response-000k.<csv|s2p|mat|nc>`` (one sweep at that bias, in one of
 the formats of :mod:`sysid_core.formats.sweepfiles`; the answering side writes it under another name
 and renames it, so that it appears complete) or ``error-000k.txt`` (its text becomes the run's
@@ -158,7 +161,9 @@ class ExchangeDevice:
     def measure(self, bias: Sequence[float], frequencies_hz: np.ndarray) -> xr.DataArray:
         """Request the measurement and wait for its answer (see the module docstring)."""
         b = self.check_bias(bias)
-        f = np.asarray(frequencies_hz, dtype=float)
+        asked = np.asarray(frequencies_hz, dtype=float)
+        order = np.argsort(asked, kind="stable")
+        f = asked[order]  # a request (and a sweep file) lists its frequencies increasing
         k, earlier = self._request(b, f)
         stem = f"{k:04d}"
         extensions = sweep_extensions()
@@ -188,7 +193,7 @@ class ExchangeDevice:
                                 f"exchange: {path.name} answers an identical earlier request: "
                                 "reused (use a new exchange folder for a new run)"
                             )
-                        return answer
+                        return answer.isel(frequency=np.argsort(order))  # in the order asked
             if self.wait_s is not None and time.monotonic() - t0 > self.wait_s:
                 why = f" (the last answer was rejected: {rejected[-1]})" if rejected else ""
                 raise DeviceError(

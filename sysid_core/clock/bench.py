@@ -99,7 +99,13 @@ class Bench:
         self._clock_s: float | None = None
 
     def measure(self, bias: np.ndarray, freqs: np.ndarray, path: Path) -> xr.Dataset:
-        """Read ``path`` if it holds this measurement (resume), else measure and save it first."""
+        """Read ``path`` if it holds this measurement (resume), else measure and save it first.
+
+        The device measures ``freqs`` in the order given (a window's least informative point
+        first: :func:`~sysid_core.measure.information.measuring_order`); the data set holds
+        them in frequency order, each with its time stamp.
+        """
+        order, freqs = np.asarray(freqs, dtype=float), np.sort(np.asarray(freqs, dtype=float))
         per = points_per_frequency(self.device.capabilities)
         n_acq = self.acquisitions_for(int(freqs.size))
         changes = self._last_bias is None or not np.array_equal(self._last_bias, bias)
@@ -111,7 +117,7 @@ class Bench:
                 f"measuring at [{', '.join(f'{b:.4f}' for b in bias)}] V, "
                 f"{freqs[0]:.3f}-{freqs[-1]:.3f} Hz, {freqs.size} points"
             )
-            da = self.device.measure(bias, freqs)
+            da = self.device.measure(bias, order).sortby("frequency")
             self._check_clock(da)
             return experiment_from_measurement(
                 da, bias, self.electrodes, self.structure_potential, self.name

@@ -23,6 +23,7 @@ import xarray as xr
 from sysid_core.clock.runclock import stamps
 from sysid_core.conic.program import SYM_BASIS
 from sysid_core.data.schema import requested_bias
+from sysid_core.drift.windows import window_time
 from sysid_core.identification.anchor import Anchor, anchor, split_offset
 from sysid_core.identification.splittrend import LAB_TREND, SplitForecast, TrendModel, forecast
 from sysid_core.identification.trendnoise import fitted_trend
@@ -81,7 +82,8 @@ def windows_forecast(
         own.append(_vector(split_offset(base, sweep, own_model), inv_root, scale))
         alone = frame.found if sweep is windows[-1][0] else anchor(model, [sweep], rate=False)
         anchored.append(_vector(alone.offset - frame.found.offset, inv_root, scale))
-        times.append(float(stamps(sweep).mean()))
+        when = window_time(sweep, own_model)
+        times.append(float(stamps(sweep).mean()) if when is None else when)
         variances.append(max(own_variance, _FLOOR_HZ2))
         cov = alone.offset_covariance
         anchored_var.append(

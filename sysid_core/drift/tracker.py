@@ -2,8 +2,9 @@
 
 The run's fit keeps its bias law; :class:`Tracker` anchors that model on the run's latest verified
 windows (:func:`sysid_core.identification.anchor.anchor`: a stiffness offset, and its rate once
-two verifications are at hand) and moves it ahead to the middle of the next verification window:
-the latest time stamp, plus the settling after the bias change, plus half a window. The split
+two verifications are at hand) and moves it ahead to the time of the next verification window:
+the latest time stamp, plus the settling after the bias change, plus as long as the latest
+window took to its own time (:func:`sysid_core.drift.windows.window_time`). The split
 (and its orientation) of the moved model at the latest window's bias is then the one that
 window's own fit measured (:func:`sysid_core.identification.anchor.split_offset`): the anchor
 holds the model's mass and polynomial, and near degenerate modes what those miss it can take
@@ -32,14 +33,10 @@ import xarray as xr
 
 from sysid_core.clock.runclock import stamps
 from sysid_core.data.schema import requested_bias
-from sysid_core.drift.forecast import (
-    interval_variance,
-    windows_forecast,
-    with_split_rate,
-)
+from sysid_core.drift.forecast import interval_variance, windows_forecast, with_split_rate
 from sysid_core.drift.looks import next_look, rayleigh_point, split_bound
 from sysid_core.drift.policy import DriftPolicy
-from sysid_core.drift.windows import blind, least_of
+from sysid_core.drift.windows import blind, least_of, to_end_s
 from sysid_core.errors import ModelError
 from sysid_core.identification.anchor import anchor
 from sysid_core.identification.drift import OffsetDrift, offset_drift
@@ -235,19 +232,25 @@ class Tracker:
         )
 
     def ahead_s(self, model: FittedModel | None = None) -> float:
-        """From the latest time stamp to the middle of the next window (seconds).
+        """From the latest time stamp to the time of the next window (seconds).
 
         The settling after the bias change (:attr:`settling` of ``model``, else
-        :attr:`settle_s`) and half the latest window.
+        :attr:`settle_s`) and what the latest window took to its own time
+        (:func:`~sysid_core.drift.windows.window_time`).
         """
         t = stamps(self.windows[-1]) if self.windows else np.array([])
         settle = self.settle_s if self.settling is None else self.settling(model)
-        return settle + (0.5 * float(np.ptp(t)) if t.size else 0.0)
+        return settle + (float(np.ptp(t)) - self._to_end_s() if t.size else 0.0)
+
+    def _to_end_s(self) -> float:
+        """:func:`~sysid_core.drift.windows.to_end_s` of the latest window, by its own fit."""
+        own = self.models[-1] if len(self.models) == len(self.windows) else None
+        return to_end_s(self.windows[-1], own)
 
     def now(
         self, model: FittedModel, ds: xr.Dataset, say: Callable[[str], None], it: int
     ) -> FittedModel:
-        """``model`` anchored on the latest windows, at the next window's middle.
+        """``model`` anchored on the latest windows, at the next window's time (:meth:`ahead_s`).
 
         ``model`` itself when no window has verified a split yet.
         """
@@ -370,8 +373,8 @@ class Tracker:
         """
         if self.at_end is None or not self.windows or self.splits[-1] > self.near_hz:
             return None  # a window far from degenerate modes measures a split of its own size
-        half = 0.5 * float(np.ptp(stamps(self.windows[-1])))
-        variance = variance_after(self.at_end, self.at_end.trend, windows, every_s, half)
+        to_end = self._to_end_s()
+        variance = variance_after(self.at_end, self.at_end.trend, windows, every_s, to_end)
         return rayleigh_point(max(self.looks, 1) + windows) * float(np.sqrt(variance))
 
     def windows_to(self, limit_hz: float, every_s: float, most: int = 10_000) -> int | None:

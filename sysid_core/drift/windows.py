@@ -3,7 +3,9 @@
 Two judgements of a window kept by :class:`sysid_core.drift.tracker.Tracker`: whether its own
 fit put a mode where none of its points came near (:func:`blind`: that split is not the
 window's to give), and the least split its fit allows at 95 % (:func:`least_split`: a window
-whose noise spans the split cannot be told from one near degenerate modes).
+whose noise spans the split cannot be told from one near degenerate modes). And when it
+measured the split (:func:`window_time`): the time of the split its fit gives, which the
+filter reads it at, and from which the drift to the window's end is counted (:func:`to_end_s`).
 """
 
 from __future__ import annotations
@@ -11,11 +13,15 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
+from sysid_core.clock.runclock import stamps
+from sysid_core.data.schema import point_times
+from sysid_core.errors import ModelError
 from sysid_core.measure.evidence import WindowAssessment
+from sysid_core.measure.information import split_weights
 from sysid_core.model.fitted import FittedModel
 from sysid_core.tuning.confidence import split_interval
 
-__all__ = ["SAMPLED_WITHIN", "blind", "least_of", "least_split"]
+__all__ = ["SAMPLED_WITHIN", "blind", "least_of", "least_split", "to_end_s", "window_time"]
 
 
 def least_split(split_hz: float, own: FittedModel | None) -> float:
@@ -55,3 +61,52 @@ def blind(sweep: xr.Dataset, evidence: WindowAssessment) -> bool:
         return False
     near = np.min(np.abs(f[None, :] - modes[:, None]), axis=1)
     return bool(np.any(near > SAMPLED_WITHIN * np.where(np.isfinite(bw), bw, np.inf)))
+
+
+def window_time(sweep: xr.Dataset, own: FittedModel | None) -> float | None:
+    """When a window measured the split (seconds): ``Σ a_i t_i``, or None without time stamps.
+
+    A split that moves during the window at a steady rate is fitted as the split at the time
+    ``Σ a_i t_i``, ``a_i`` each point's share of the estimate by the modes of its own fit
+    (:func:`~sysid_core.measure.information.split_weights`), within the window's stamps. The
+    mean of its stamps where those shares are not known (no fit, no modes, too few points).
+    A window measured least informative point first
+    (:func:`~sysid_core.measure.information.measuring_order`) measures the split near its end.
+    """
+    t = stamps(sweep)
+    if not t.size:
+        return None
+    weights = _shares(sweep, own)
+    if weights is None:
+        return float(t.mean())
+    at = point_times(sweep, 0)
+    assert at is not None  # the shares are only computed at stamped points
+    return float(np.clip(weights @ at, t.min(), t.max()))
+
+
+def _shares(sweep: xr.Dataset, own: FittedModel | None) -> np.ndarray | None:
+    """Each point's share of the window's split by its own fit's modes, or None."""
+    if own is None or "experiment" not in sweep.dims:
+        return None
+    at = point_times(sweep, 0)
+    if at is None or at.size != sweep.sizes["frequency"]:
+        return None
+    try:
+        modes = own.modal()
+    except ModelError:
+        return None
+    bw = modes.bandwidth_hz
+    if not np.all(np.isfinite(bw) & (bw > 0)):
+        return None
+    f = np.asarray(sweep["frequency"].values, dtype=float)
+    weights = split_weights(f, modes.frequencies_hz, bw)
+    return weights if weights is not None and np.all(np.isfinite(weights)) else None
+
+
+def to_end_s(sweep: xr.Dataset, own: FittedModel | None) -> float:
+    """From a window's :func:`window_time` to its last time stamp (seconds; 0 without stamps).
+
+    The drift a run that stops after this window carries past what the window measured.
+    """
+    when, t = window_time(sweep, own), stamps(sweep)
+    return 0.0 if when is None else float(t.max()) - when

@@ -12,9 +12,10 @@ direction the modes' orientation). On a drifting bench it moves in time. The mod
 ``r`` is the split's rate (charging that follows the applied bias, a temperature that ramps
 along the gyro's own axes); ``q_r = σ_r² / τ_r`` lets the rate change by its own size in
 ``τ_r`` (the applied bias changes at every answer, and the charging with it); ``q_s`` is the
-wander that no rate explains. Each verification window measures ``s`` at the middle of its
-time stamps with its own fit's variance (its split interval, times ``λ`` where the windows
-scatter more than their fits say: :mod:`sysid_core.identification.trendnoise`); the model a run
+wander that no rate explains. Each verification window measures ``s`` at its time (where its
+points tell the split, :func:`sysid_core.drift.windows.window_time`) with its own fit's
+variance (its split interval, times ``λ`` where the windows scatter more than their fits say:
+:mod:`sysid_core.identification.trendnoise`); the model a run
 anchors on its latest window measures ``s`` there as zero with the variance of what a model's
 law misses near degenerate modes (``σ_m²``). :func:`forecast` filters the measurements in time
 order and predicts ``s`` and its variance at any later time: where the answer will be verified.
@@ -166,7 +167,8 @@ def forecast(
     Parameters
     ----------
     times_s : sequence of float
-        The middle of each window (seconds, the bench clock), in any order.
+        The time of each window (seconds, the bench clock; where its points tell the split),
+        in any order.
     vectors_hz : ndarray (n, 2)
         Each window's own split vector, against one reference model (Hz).
     variances_hz2 : sequence of float
@@ -333,7 +335,7 @@ def variance_after(
     The filter's covariance does not depend on what the windows measure, only on when and how
     well: this carries ``found``'s on through ``windows`` windows, one every ``every_s``
     seconds, each measuring the split with the windows' median variances (own and anchored),
-    and ``ahead_s`` seconds past the last (the end of a window, from its middle). What a run
+    and ``ahead_s`` seconds past the last (the end of a window, from its time). What a run
     can still show at best: the variance its verdict would hold if every answer from now on
     were perfect.
     """

@@ -30,7 +30,14 @@ import numpy as np
 
 from sysid_core.clock.benchtime import acquisitions
 
-__all__ = ["mode_information", "per_second", "split_information", "sweep_cost"]
+__all__ = [
+    "measuring_order",
+    "mode_information",
+    "per_second",
+    "split_information",
+    "split_weights",
+    "sweep_cost",
+]
 
 #: Where the modes may be, in standard deviations of the guess, and the weights (a normal
 #: distribution at five points).
@@ -73,6 +80,67 @@ def mode_information(points: np.ndarray, f0: float, bw: float) -> float:
     if not np.isfinite(var) or var <= 0 or np.linalg.cond(fisher) > 1e12:
         return 0.0
     return 1.0 / (var * bw * bw)
+
+
+def _mode_weights(points: np.ndarray, f0: float, bw: float) -> np.ndarray | None:
+    """Each point's share of the estimate of ``f0``: ``a_i = e₀ᵀ F⁻¹ J_iᵀ J_i e₀`` (sum 1).
+
+    ``F = JᵀJ`` the Fisher information, ``J_i`` the rows of point ``i``: a move ``δ_i`` of the
+    mode at point ``i`` alone moves the least-squares estimate of ``f0`` by ``a_i δ_i``. None
+    where the points cannot tell ``f0`` (:func:`mode_information` is 0).
+    """
+    jac = _jacobian(points, f0, bw)
+    if jac.shape[0] < jac.shape[1]:
+        return None
+    fisher = jac.T @ jac
+    if np.linalg.cond(fisher) > 1e12:
+        return None
+    row = np.linalg.solve(fisher, np.eye(len(fisher))[0])
+    share = (jac @ row) * jac[:, 0]
+    n = points.size
+    return share[:n] + share[n:]
+
+
+def split_weights(
+    points: np.ndarray,
+    frequencies_hz: np.ndarray | Sequence[float],
+    bandwidth_hz: np.ndarray | Sequence[float],
+) -> np.ndarray | None:
+    """Each point's share of a window's estimate of the split ``f2 - f1`` (they sum to 1).
+
+    A split that moves during the window (a drift) by ``δ_i`` at point ``i`` moves the estimate
+    by ``Σ a_i δ_i``: for a split moving at a steady rate, the estimate is the split at the
+    time ``Σ a_i t_i`` of the points' time stamps ``t_i`` (the window's *time*). Each mode's
+    shares (:func:`_mode_weights`), averaged over the two (the split moves each by half).
+    None where the points cannot tell a mode.
+    """
+    p = np.asarray(points, dtype=float)
+    shares = [
+        _mode_weights(p, float(fm), float(bm))
+        for fm, bm in zip(np.asarray(frequencies_hz), np.asarray(bandwidth_hz), strict=True)
+    ]
+    if any(s is None for s in shares):
+        return None
+    return 0.5 * (shares[0] + shares[1])  # type: ignore[operator]
+
+
+def measuring_order(
+    points: np.ndarray,
+    frequencies_hz: np.ndarray | Sequence[float],
+    bandwidth_hz: np.ndarray | Sequence[float],
+) -> np.ndarray:
+    """``points`` in the order to measure them: the smallest share of the split first.
+
+    A window's split is the split at its time (:func:`split_weights`), and a run that stops
+    after it ends at its last point: measured least informative first, the window's time lies
+    near its end, where the drift from it to the end is least. ``points`` sorted where the
+    shares are not known.
+    """
+    p = np.sort(np.asarray(points, dtype=float))
+    weights = split_weights(p, frequencies_hz, bandwidth_hz)
+    if weights is None:
+        return p
+    return p[np.argsort(weights, kind="stable")]
 
 
 def split_information(

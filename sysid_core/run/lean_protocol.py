@@ -22,6 +22,7 @@ from sysid_core.data.schema import point_times
 from sysid_core.errors import SysidError
 from sysid_core.measure.contraction import Costs, too_slow
 from sysid_core.measure.evidence import WindowAssessment
+from sysid_core.measure.information import measuring_order
 from sysid_core.measure.knowledge import LEVEL_SHARE, Knowledge
 from sysid_core.measure.lean import (
     FINE_STEP,
@@ -186,14 +187,14 @@ class LeanProtocol(Protocol):
                 last = self.known.items[-1].data
                 uncertainty = motion_allowance(center, point_times(last, 0), settle, ppm)
             guess = ModeGuess.of([center - split / 2, center + split / 2], bw, uncertainty)
-            if around_prediction:  # after the bias change to the answer
-                return mode_grid(guess, self.ctx.plan, resolve=True, cost_s=self._cost(True))
             finest = None  # a second fine window resolves what the first one's fit measured
             if seen is not None and np.all(np.isfinite(seen)):
                 narrowest = float(np.min(bw))
                 finest = FINE_STEP * max(min(narrowest, float(np.min(seen))), narrowest / 4)
-            plan, cost = self.ctx.plan, self._cost(False)
-            return mode_grid(guess, plan, resolve=True, fine=True, finest_hz=finest, cost_s=cost)
+            plan, cost = self.ctx.plan, self._cost(around_prediction)
+            fine = not around_prediction  # not after the bias change to the answer
+            grid = mode_grid(guess, plan, resolve=True, fine=fine, finest_hz=finest, cost_s=cost)
+            return measuring_order(grid, guess.frequencies_hz, bw)  # the split's best points last
 
         before = len(self.known)
         band = self._band(bias, folder)

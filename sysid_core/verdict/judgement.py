@@ -61,8 +61,8 @@ from typing import Any
 
 import numpy as np
 
-from sysid_core.clock.runclock import stamps_span_s
 from sysid_core.drift.tracker import Tracker
+from sysid_core.drift.windows import to_end_s
 from sysid_core.identification.drift import offset_drift
 from sysid_core.measure.fitter import Fitter
 from sysid_core.measure.verification import Verification
@@ -86,7 +86,7 @@ __all__ = [
     "honest_goals",
     "outpaced",
     "split_rate_hz_per_s",
-    "sweep_half_s",
+    "sweep_to_end_s",
     "twin_goal",
     "verdict",
 ]
@@ -117,9 +117,13 @@ def split_rate_hz_per_s(model: FittedModel) -> float | None:
     return None if seen is None else seen.split_hz_per_h / 3600.0
 
 
-def sweep_half_s(ver: Verification) -> float:
-    """Half the time the verification's last sweep took (its middle to its end), or 0."""
-    return 0.5 * (stamps_span_s(ver.sweep) or 0.0)
+def sweep_to_end_s(ver: Verification) -> float:
+    """From the time the verification's last sweep measured the split to its end (s), or 0.
+
+    Half the sweep for one measured in frequency order; less for a window measured least
+    informative point first (:func:`~sysid_core.drift.windows.to_end_s`).
+    """
+    return to_end_s(ver.sweep, ver.model)
 
 
 def holds_s(split_hz: float, acceptance_hz: float, rate_hz_per_s: float | None) -> float | None:
@@ -177,7 +181,7 @@ def honest_goals(
         goals.append(Goal("split 95 % upper bound", interval[1], RESOLVE_FACTOR * acceptance_hz))
     rate = split_rate_hz_per_s(model)
     if rate is not None:
-        goals.append(Goal(DRIFT_GOAL, ver.split_hz + rate * sweep_half_s(ver), acceptance_hz))
+        goals.append(Goal(DRIFT_GOAL, ver.split_hz + rate * sweep_to_end_s(ver), acceptance_hz))
     return goals
 
 
@@ -285,7 +289,7 @@ def verdict(
     if converged and (twin := twin_goal(ver, fitter, acceptance_hz)):
         goals.append(twin)
         converged = twin.met
-    stop = None if converged else outpaced(goals, ver.split_hz, acceptance_hz, sweep_half_s(ver))
+    stop = None if converged else outpaced(goals, ver.split_hz, acceptance_hz, sweep_to_end_s(ver))
     if not converged and stop is None and dac is not None:
         previous, bias, info = dac
         again = previous is not None and np.array_equal(np.asarray(previous), bias)

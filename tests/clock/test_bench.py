@@ -107,3 +107,30 @@ def test_a_refused_measurement_touches_neither_the_device_nor_the_folder(tmp_pat
 )
 def test_a_measurement_counts_for_what_its_file_says(name: str, purpose: str) -> None:
     assert purpose_of(name) == purpose
+
+
+def test_points_are_measured_in_the_order_given_and_kept_in_frequency_order(
+    tmp_path: Path,
+) -> None:
+    """A window measured least informative point first: the device sees that order, the data
+    set holds the points by frequency with the stamps they were measured at, and a resumed run
+    reads the same file back for the same points in any order."""
+    seen: list[np.ndarray] = []
+
+    class Recording(CloverleafGyro):
+        def measure(self, bias, frequencies_hz):  # type: ignore[no-untyped-def]
+            seen.append(np.array(frequencies_hz, dtype=float))
+            return super().measure(bias, frequencies_hz)
+
+    b = bench(tmp_path, Recording(seed=1, bench={"clock": True}))
+    (tmp_path / "iter01").mkdir()
+    order = F[[0, 11, 1, 10, 2, 9, 3, 8, 4, 7, 5, 6]]
+    ds = b.measure(ZERO, order, tmp_path / "iter01" / "verify.nc")
+    np.testing.assert_array_equal(seen[0], order)
+    np.testing.assert_array_equal(ds["frequency"].values, F)
+    t = ds["time_s"].values[0]
+    assert np.all(np.diff(t[[0, 11, 1, 10, 2, 9, 3, 8, 4, 7, 5, 6]]) > 0)
+    again = bench(tmp_path, Recording(seed=1, bench={"clock": True}))
+    back = again.measure(ZERO, F[::-1], tmp_path / "iter01" / "verify.nc")
+    assert len(seen) == 1
+    np.testing.assert_array_equal(back["response"].values, ds["response"].values)

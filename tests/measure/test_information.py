@@ -10,7 +10,13 @@ from hypothesis import given
 from hypothesis import strategies as st
 from scipy.optimize import least_squares
 
-from sysid_core.measure.information import mode_information, per_second, split_information
+from sysid_core.measure.information import (
+    measuring_order,
+    mode_information,
+    per_second,
+    split_information,
+    split_weights,
+)
 from sysid_core.measure.modegrid import SHAPES, ModeGuess, mode_grid, shaped_grid
 from sysid_core.measure.sweeps import MIN_POINTS, SweepPlan, fewest_points
 
@@ -98,3 +104,54 @@ def test_fewest_points_are_whole_acquisitions_nearest_the_minimum(tones: int) ->
     n = fewest_points(tones)
     assert n % tones == 0 and n >= tones
     assert abs(n - MIN_POINTS) <= tones / 2 or n == tones
+
+
+def test_a_fit_of_a_drifting_mode_gives_the_frequency_at_the_windows_time() -> None:
+    """The known truth: a mode moving at a steady rate during a window is fitted at ``Σ a_i t_i``.
+
+    One mode (4420 Hz, 0.1 Hz wide) moves 2 mHz over a window of the default grid measured in
+    :func:`measuring_order` (one point per second), no noise. The least-squares ``f0`` is the
+    frequency at the window's time by :func:`split_weights` to a hundredth of the move (the
+    weights are first order in it), and not the frequency at the window's middle.
+    """
+    guess = ModeGuess.of([4420.0, 4420.0], [0.1, 0.1])
+    f = measuring_order(shaped_grid(guess, PLAN), [4420.0, 4420.0], [0.1, 0.1])
+    t = np.arange(f.size, dtype=float)
+    rate = 2e-3 / t[-1]
+    truth = np.array([4420.0, 0.1, 1.0, 0.0, 0.02, -0.01, 0.001, 0.0])
+    moved = [np.r_[4420.0 + rate * ti, truth[1:]] for ti in t]
+    data = np.array([_response(th, np.array([fi]))[0] for th, fi in zip(moved, f, strict=True)])
+
+    def residual(theta: np.ndarray) -> np.ndarray:
+        r = _response(theta, f) - data
+        return np.concatenate([r.real, r.imag])
+
+    fitted = least_squares(residual, truth, x_scale="jac", xtol=1e-15, ftol=1e-15).x[0]
+    order = np.argsort(f)
+    weights = split_weights(f[order], [4420.0, 4420.0], [0.1, 0.1])
+    assert weights is not None
+    assert weights.sum() == pytest.approx(1.0)
+    when = float(weights @ t[order])
+    assert fitted == pytest.approx(4420.0 + rate * when, abs=2e-5)
+    assert abs(fitted - (4420.0 + rate * t.mean())) > 5e-4
+    # measured least informative first, the window's time is in its last tenth
+    assert when > 0.9 * t[-1]
+
+
+@given(
+    centre=st.floats(-0.3, 0.3),
+    ratio=st.floats(0.3, 3.0),
+    split=st.floats(0.0, 0.5),
+)
+def test_the_measuring_order_is_a_permutation_ending_where_the_split_is_told(
+    centre: float, ratio: float, split: float
+) -> None:
+    """Every point once; the last one measured carries the largest share of the split."""
+    f0 = 4420.0 + centre
+    guess = ModeGuess.of([f0, f0 + split * 0.1], [0.1, 0.1 * ratio], 0.02)
+    grid = shaped_grid(guess, PLAN)
+    ordered = measuring_order(grid, guess.frequencies_hz, guess.bandwidth_hz)
+    np.testing.assert_array_equal(np.sort(ordered), np.sort(grid))
+    weights = split_weights(np.sort(grid), guess.frequencies_hz, guess.bandwidth_hz)
+    assert weights is not None
+    assert weights[np.searchsorted(np.sort(grid), ordered[-1])] == pytest.approx(weights.max())
