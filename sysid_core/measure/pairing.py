@@ -14,10 +14,15 @@ each, in turn (the linear law's rank condition, ``n + 1`` sweeps), fits that law
 (:func:`~sysid_core.model.modal.degenerate_w`; of the two roots ``v_gyro ± √w`` of each
 electrode, the one nearer its bias inside the limits). :func:`least_voltage_pair` returns the
 pair whose bias lies inside the limits with the smallest largest step from the current bias: the
-shortest extrapolation of the law it was fitted with. From the third electrode stepped, a
-pair of those stepped whose bias lies within the step ends the stepping (:func:`choose_pair`,
-:func:`pair_within`): its law is interpolated, not extrapolated. The run then tunes that pair;
-the other electrodes stay at their bias. No pair inside the limits: every electrode stays tuned.
+shortest extrapolation of the law it was fitted with. From the third electrode stepped (three
+pairs: a choice of axes), the least-voltage pair of those stepped, if one lies inside the
+limits, ends the stepping (:func:`choose_pair`, :func:`pair_of_stepped`): a further scout costs
+a bias change and its acquisitions in every run, and the shorter step its pair might offer
+saved fewer (on random gyros with one tone, the median run 114 → 98 dwells; stepping only two
+offers one pair, whose axes may lie close, and lengthened a third of the runs:
+docs/studies/dwells.md, "Scouts until three electrodes offer a pair"). The run then tunes that
+pair; the other electrodes stay at their bias. No pair inside the limits: every electrode stays
+tuned.
 
 The first sweeps' law can be wrong about a pair far from where it was measured, and two
 electrodes offer the DAC's codes on a coarser lattice than more do. So a pair whose answer is
@@ -42,7 +47,7 @@ from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import degenerate_w
 from sysid_core.tuning.criteria import BiasSpace
 
-__all__ = ["Pair", "choose_pair", "least_voltage_pair", "pair_within"]
+__all__ = ["Pair", "choose_pair", "least_voltage_pair", "pair_of_stepped"]
 
 
 @dataclass(frozen=True)
@@ -58,7 +63,7 @@ class Pair:
     step_v : float
         The largest change of the two from their current bias (volts).
     unstepped : tuple of str
-        The electrodes never stepped: the pair was chosen before them (:func:`pair_within`).
+        The electrodes never stepped: the pair was chosen before them (:func:`pair_of_stepped`).
     """
 
     electrodes: tuple[str, str]
@@ -76,8 +81,8 @@ class Pair:
         )
         if self.unstepped:
             line += (
-                f" ({', '.join(self.unstepped)} not stepped: this pair reaches degenerate modes "
-                "within the step its electrodes were stepped by)"
+                f" ({', '.join(self.unstepped)} not stepped: this pair of the first three "
+                "stepped reaches degenerate modes inside the limits)"
             )
         return line
 
@@ -133,24 +138,17 @@ def least_voltage_pair(
     return best
 
 
-def pair_within(
-    model: FittedModel, bias: np.ndarray, space: BiasSpace, step: float, unstepped: list[str]
+def pair_of_stepped(
+    model: FittedModel, bias: np.ndarray, space: BiasSpace, unstepped: list[str]
 ) -> Pair | None:
-    """The least-voltage pair of ``model``'s electrodes if it lies within ``step``, else None.
+    """The least-voltage pair of the electrodes stepped so far, or None.
 
-    ``model``: the linear law of the electrodes stepped so far, each by ``step`` volts from
-    ``bias`` (theirs, in the model's order); ``unstepped``: the others. A pair whose degenerate
-    bias lies within that step is the law interpolated between its sweeps, not carried beyond
-    them; stepping a further electrode could only offer a pair with a shorter step, also within
-    the sweeps, at the cost of a bias change and its acquisitions. On random gyros of 2-7
-    electrodes with 8 tones the median run took 30.8 dwells instead of 34.1, none longer; with
-    one tone 155.8 instead of 171.6, one run of 24 longer, its pair having given way
-    (docs/studies/dwells.md, "Scouts until a pair is within the step").
+    ``model``: the linear law of those electrodes (three or more), stepped from ``bias``
+    (theirs, in the model's order); ``unstepped``: the others, which the pair leaves unstepped.
+    None when no pair of them reaches degenerate modes inside the limits (stepping goes on).
     """
     pair = least_voltage_pair(model, bias, space.limits, space.structure_potential)
-    if pair is None or pair.step_v > step:
-        return None
-    return dataclasses.replace(pair, unstepped=tuple(unstepped))
+    return None if pair is None else dataclasses.replace(pair, unstepped=tuple(unstepped))
 
 
 def choose_pair(
@@ -160,20 +158,19 @@ def choose_pair(
     fit: Callable[[list[str]], FittedModel],
     bias: np.ndarray,
     space: BiasSpace,
-    step: float,
 ) -> Pair | None:
     """Step the electrodes in turn and choose the pair to tune (see the module).
 
-    ``rows``: the bias that steps each of ``tuned`` by ``step`` from ``bias`` (theirs), which
+    ``rows``: the bias that steps each of ``tuned`` from ``bias`` (theirs), which
     ``learn(row, name)`` measures; ``fit(names)``: the linear law of ``names`` from every sweep
-    so far. From the third electrode stepped (three pairs to choose from), a pair within the
-    step (:func:`pair_within`) ends the stepping; else, once all are stepped, the pair of least
-    voltage, or None.
+    so far. From the third electrode stepped (three pairs to choose from), a pair of those
+    inside the limits (:func:`pair_of_stepped`) ends the stepping; else, once all are stepped,
+    the pair of least voltage, or None.
     """
     for k, (row, name) in enumerate(zip(rows, tuned, strict=True), start=1):
         learn(row, name)
         if 3 <= k < len(tuned) and (
-            pair := pair_within(fit(tuned[:k]), bias[:k], space, step, tuned[k:])
+            pair := pair_of_stepped(fit(tuned[:k]), bias[:k], space, tuned[k:])
         ):
             return pair
     return least_voltage_pair(fit(tuned), bias, space.limits, space.structure_potential)

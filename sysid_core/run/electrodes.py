@@ -2,10 +2,11 @@
 
 For degenerate modes with more than two electrodes and ``[tuning] pair = true``, the first
 iteration steps the electrodes in turn and tunes the pair that reaches degenerate modes with the
-least voltage (:func:`sysid_core.measure.pairing.choose_pair`: stepping stops once a pair of
-those stepped does so within the step). A pair whose answer is beyond its reach gives way to
-every electrode (:meth:`Electrodes.give_way`); the electrodes never stepped are then stepped
-once where the run is (:meth:`Electrodes.complete`), as the first ones were.
+least voltage (:func:`sysid_core.measure.pairing.choose_pair`: stepping stops once three
+electrodes stepped offer a pair that does so inside the limits). A pair whose answer is beyond
+its reach gives way to every electrode (:meth:`Electrodes.give_way`); the electrodes never
+stepped are then stepped once where the run is (:meth:`Electrodes.complete`), as the first ones
+were.
 """
 
 from __future__ import annotations
@@ -66,7 +67,7 @@ class Electrodes:
         def fit(names: list[str]) -> FittedModel:
             return ctx.fitter.fit(self.known.union().sel(electrode=names))[0]
 
-        pair = choose_pair(tuned, rows, self._step(folder), fit, bias[sp.index], sp, ctx.step(1))
+        pair = choose_pair(tuned, rows, self._step(folder), fit, bias[sp.index], sp)
         if pair is None:
             ctx.say(
                 "iteration 1: by the first sweeps' law no pair of the electrodes reaches "

@@ -105,9 +105,10 @@ def test_without_pair_every_electrode_is_tuned(tmp_path: Path) -> None:
 def test_a_run_given_six_electrodes_tunes_a_pair_and_reaches_the_goal(tmp_path: Path) -> None:
     out, summary, device = _run(tmp_path, True)
     assert len(summary["tuned"]) == 2 and set(summary["tuned"]) < set(summary["electrodes"])
+    # three electrodes stepped offer a pair inside the limits: B4-B6 are not stepped
     assert sorted(p.name for p in out.glob("iter01/exp-B*.nc")) == [
         f"exp-{e}.nc"
-        for e in device.electrodes[:6]  # type: ignore[attr-defined]
+        for e in device.electrodes[:3]  # type: ignore[attr-defined]
     ]
     held = [k for k, e in enumerate(summary["electrodes"]) if e not in summary["tuned"]]
     assert np.allclose(np.asarray(summary["bias"])[held], 0.0)  # the others stay where they were
@@ -189,42 +190,42 @@ def test_a_pair_whose_dac_codes_miss_the_acceptance_gives_way_to_every_electrode
     assert summary.converged and f[1] - f[0] <= 0.001
 
 
-def test_a_pair_within_the_step_is_chosen_before_the_other_electrodes_are_stepped(
+def test_three_stepped_electrodes_with_a_pair_inside_the_limits_end_the_stepping(
     truth: GyroTruth,
 ) -> None:
     """The cloverleaf's exact law and a fourth electrode, B4, acting as B1 does at half its
-    strength. Stepped by 5 V, B2 and B3 reach degenerate modes 4.35 V away, within the step,
-    once three electrodes are stepped, so B4 is not stepped; stepped by 4 V no pair of the
-    three is within it and B4 is stepped too. Two stepped electrodes leave no pair to choose."""
+    strength. Once B1-B3 are stepped, B2 and B3 reach degenerate modes 4.87 V from 0 V, inside
+    limits of ±10 V, so B4 is not stepped; inside ±4 V no pair of the three reaches them and B4
+    is stepped too. Two stepped electrodes leave no pair to choose."""
     from tuning.test_tuning import exact_model
 
-    from sysid_core.measure.pairing import choose_pair, pair_within
+    from sysid_core.measure.pairing import choose_pair, pair_of_stepped
     from sysid_core.tuning.criteria import BiasSpace
 
     four = [*ALL, "B4"]
     truth4 = dataclasses.replace(
         truth, Kp=np.concatenate([truth.Kp, 0.5 * truth.Kp[:1]]), electrodes=tuple(four)
     )
-    space = BiasSpace(four, four, np.zeros(4), (-10.0, 10.0), truth.structure_potential)
+    wide = BiasSpace(four, four, np.zeros(4), (-10.0, 10.0), truth.structure_potential)
+    narrow = dataclasses.replace(wide, limits=(-4.0, 4.0))
     three = exact_model(truth4, ALL)
-    assert pair_within(three, np.zeros(3), space, 4.0, ["B4"]) is None
-    found = pair_within(three, np.zeros(3), space, 5.0, ["B4"])
+    assert pair_of_stepped(three, np.zeros(3), narrow, ["B4"]) is None
+    found = pair_of_stepped(three, np.zeros(3), wide, ["B4"])
     assert found is not None and found.electrodes == ("B2", "B3") and found.unstepped == ("B4",)
+    assert found.step_v == pytest.approx(4.87, abs=0.01)
     assert "B4 not stepped" in found.describe(four)
-    assert pair_within(exact_model(truth4, ALL[:2]), np.zeros(2), space, 5.0, ["B3"]) is None
-    for step, stepped in ((5.0, ALL), (4.0, four)):
+    assert pair_of_stepped(exact_model(truth4, ALL[:2]), np.zeros(2), wide, ["B3"]) is None
+    for space, stepped in ((wide, ALL), (narrow, four)):
         measured: list[str] = []
-        pair = choose_pair(
+        choose_pair(
             four,
-            np.eye(4) * step,
+            np.eye(4),
             lambda row, name, seen=measured: seen.append(name),  # type: ignore[misc]
             lambda names: exact_model(truth4, names),
             np.zeros(4),
             space,
-            step,
         )
         assert measured == stepped
-        assert pair is not None
 
 
 def test_electrodes_never_stepped_are_stepped_once_the_pair_gives_way(tmp_path: Path) -> None:
