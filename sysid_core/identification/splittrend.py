@@ -15,10 +15,10 @@ along the gyro's own axes); ``q_r = σ_r² / τ_r`` lets the rate change by its 
 wander that no rate explains. Each verification window measures ``s`` at its time (where its
 points tell the split, :func:`sysid_core.drift.windows.window_time`) with its own fit's
 variance (its split interval, times ``λ`` where the windows scatter more than their fits say:
-:mod:`sysid_core.identification.trendnoise`); the model a run
-anchors on its latest window measures ``s`` there as zero with the variance of what a model's
-law misses near degenerate modes (``σ_m²``). :func:`forecast` filters the measurements in time
-order and predicts ``s`` and its variance at any later time: where the answer will be verified.
+:mod:`sysid_core.identification.trendnoise`); the model a run anchors on its latest window
+measures ``s`` there as zero with the variance of what a model's law misses near degenerate
+modes (``σ_m²``). :func:`forecast` filters the measurements in time order and predicts ``s``
+and its variance at any later time: where the answer will be verified.
 
 The rules this replaces are its limits: the latest window's split alone (``q_s → ∞``), a line
 in time through every window (``q_s = q_r = 0``, ``σ_r → ∞``), windows pooled with a prior on

@@ -19,7 +19,7 @@ pairs: a choice of axes), the least-voltage pair of those stepped, if one lies i
 limits, ends the stepping (:func:`choose_pair`, :func:`pair_of_stepped`): a further scout costs
 a bias change and its acquisitions in every run, and the shorter step its pair might offer
 saved fewer (on random gyros with one tone, the median run 114 → 98 dwells; stepping only two
-offers one pair, whose axes may lie close, and lengthened a third of the runs:
+offers one pair, whose axes may lie close, and lengthened 9 of 24 fresh runs:
 docs/studies/dwells.md, "Scouts until three electrodes offer a pair"). The run then tunes that
 pair; the other electrodes stay at their bias. No pair inside the limits: every electrode stays
 tuned.
