@@ -76,20 +76,19 @@ def window_time(sweep: xr.Dataset, own: FittedModel | None) -> float | None:
     t = stamps(sweep)
     if not t.size:
         return None
-    weights = _shares(sweep, own)
-    if weights is None:
+    at = point_times(sweep, 0) if "experiment" in sweep.dims else None
+    weights = None if at is None else _shares(sweep, own, at)
+    if at is None or weights is None:
         return float(t.mean())
-    at = point_times(sweep, 0)
-    assert at is not None  # the shares are only computed at stamped points
     return float(np.clip(weights @ at, t.min(), t.max()))
 
 
-def _shares(sweep: xr.Dataset, own: FittedModel | None) -> np.ndarray | None:
-    """Each point's share of the window's split by its own fit's modes, or None."""
-    if own is None or "experiment" not in sweep.dims:
-        return None
-    at = point_times(sweep, 0)
-    if at is None or at.size != sweep.sizes["frequency"]:
+def _shares(sweep: xr.Dataset, own: FittedModel | None, at: np.ndarray) -> np.ndarray | None:
+    """Each point's share of the window's split by its own fit's modes, or None.
+
+    ``at``: the window's time stamps, one per point measured.
+    """
+    if own is None or at.size != sweep.sizes["frequency"]:
         return None
     try:
         modes = own.modal()

@@ -64,15 +64,26 @@ def _jacobian(points: np.ndarray, f0: float, bw: float) -> np.ndarray:
     return np.vstack([jc.real, jc.imag])
 
 
+def _fisher(points: np.ndarray, f0: float, bw: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """The Jacobian of :func:`_jacobian` and its Fisher information ``JᵀJ``, or None.
+
+    None when the points cannot tell the parameters apart (fewer equations than unknowns).
+    """
+    jac = _jacobian(np.asarray(points, dtype=float), float(f0), float(bw))
+    if jac.shape[0] < jac.shape[1]:
+        return None
+    return jac, jac.T @ jac
+
+
 def mode_information(points: np.ndarray, f0: float, bw: float) -> float:
     """``1 / var(f0)`` (Hz⁻², unit noise and residue) of one mode from ``points`` (Hz).
 
     Zero when the points cannot tell ``f0`` from the other parameters (too few of them).
     """
-    jac = _jacobian(np.asarray(points, dtype=float), float(f0), float(bw))
-    if jac.shape[0] < jac.shape[1]:
+    found = _fisher(points, f0, bw)
+    if found is None:
         return 0.0
-    fisher = jac.T @ jac
+    fisher = found[1]
     try:
         var = float(np.linalg.solve(fisher, np.eye(len(fisher))[0])[0])
     except np.linalg.LinAlgError:
@@ -89,12 +100,10 @@ def _mode_weights(points: np.ndarray, f0: float, bw: float) -> np.ndarray | None
     mode at point ``i`` alone moves the least-squares estimate of ``f0`` by ``a_i δ_i``. None
     where the points cannot tell ``f0`` (:func:`mode_information` is 0).
     """
-    jac = _jacobian(points, f0, bw)
-    if jac.shape[0] < jac.shape[1]:
+    found = _fisher(points, f0, bw)
+    if found is None or np.linalg.cond(found[1]) > 1e12:
         return None
-    fisher = jac.T @ jac
-    if np.linalg.cond(fisher) > 1e12:
-        return None
+    jac, fisher = found
     row = np.linalg.solve(fisher, np.eye(len(fisher))[0])
     share = (jac @ row) * jac[:, 0]
     n = points.size
