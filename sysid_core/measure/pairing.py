@@ -28,16 +28,18 @@ The first sweeps' law can be wrong about a pair far from where it was measured, 
 electrodes offer the DAC's codes on a coarser lattice than more do. So a pair whose answer is
 beyond its reach (its model finds the goal out of reach inside the limits, or the DAC's best
 code near the answer leaves more than the acceptance:
-:func:`~sysid_core.verdict.dacfloor.beyond_reach`) gives way to every electrode: the sweeps
-that stepped the others count again, and those never stepped are stepped once where the run
-is (:class:`~sysid_core.run.electrodes.Electrodes`).
+:func:`~sysid_core.verdict.dacfloor.beyond_reach`) gives way: the sweeps that stepped the
+others count again, and those never stepped are stepped once where the run is. Out of reach,
+the linear law of every sweep chooses again among the pairs that have not given way (``exclude``
+of :func:`least_voltage_pair`); the DAC's codes, or no pair left, and every electrode is tuned
+(:class:`~sysid_core.run.electrodes.Electrodes`).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import itertools
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 
 import numpy as np
@@ -71,12 +73,12 @@ class Pair:
     step_v: float
     unstepped: tuple[str, ...] = ()
 
-    def describe(self, among: list[str]) -> str:
-        """One line for the progress."""
+    def describe(self, among: list[str], law: str = "the first sweeps'") -> str:
+        """One line for the progress (``law``: whose law chose the pair)."""
         a, b = self.electrodes
         line = (
-            f"tuning {a} and {b} of {', '.join(among)}: the pair whose degenerate bias by the "
-            f"first sweeps' law ({self.bias[0]:.3f}, {self.bias[1]:.3f} V) lies the least "
+            f"tuning {a} and {b} of {', '.join(among)}: the pair whose degenerate bias by "
+            f"{law} law ({self.bias[0]:.3f}, {self.bias[1]:.3f} V) lies the least "
             f"from the current bias ({self.step_v:.3g} V); the others stay where they are"
         )
         if self.unstepped:
@@ -92,6 +94,7 @@ def least_voltage_pair(
     bias: np.ndarray,
     limits: tuple[float, float],
     structure_potential: float,
+    exclude: Collection[frozenset[str]] = (),
 ) -> Pair | None:
     """The pair of ``model``'s electrodes that reaches degenerate modes with the smallest step.
 
@@ -106,6 +109,8 @@ def least_voltage_pair(
         The device's bias limits (volts).
     structure_potential : float
         ``v_gyro`` (volts).
+    exclude : collection of frozenset of str
+        Pairs not to choose (pairs that gave way).
 
     Returns
     -------
@@ -122,6 +127,8 @@ def least_voltage_pair(
     low, high = limits
     best: Pair | None = None
     for a, b in itertools.combinations(range(len(names)), 2):
+        if frozenset((names[a], names[b])) in exclude:
+            continue
         base = np.asarray(model.K0, dtype=float) + sum(
             w[p] * kp[p] for p in range(len(names)) if p not in (a, b)
         )

@@ -4,9 +4,13 @@ For degenerate modes with more than two electrodes and ``[tuning] pair = true``,
 iteration steps the electrodes in turn and tunes the pair that reaches degenerate modes with the
 least voltage (:func:`sysid_core.measure.pairing.choose_pair`: stepping stops once three
 electrodes stepped offer a pair that does so inside the limits). A pair whose answer is beyond
-its reach gives way to every electrode (:meth:`Electrodes.give_way`); the electrodes never
-stepped are then stepped once where the run is (:meth:`Electrodes.complete`), as the first ones
-were.
+its reach gives way (:meth:`Electrodes.give_way`): the electrodes never stepped are then stepped
+once where the run is (:meth:`Electrodes.complete`), as the first ones were. If its model found
+the goal out of reach inside the limits, the linear law of every sweep then chooses again among
+the pairs that have not given way (:meth:`Electrodes.rechoose`); a pair chosen before every
+electrode was stepped saw three of them, by a law fitted on a volt. Where no pair remains, or
+the pair gave way to the DAC's codes (a lattice that more electrodes make finer), every
+electrode is tuned.
 """
 
 from __future__ import annotations
@@ -18,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from sysid_core.measure.knowledge import Knowledge
-from sysid_core.measure.pairing import choose_pair
+from sysid_core.measure.pairing import choose_pair, least_voltage_pair
 from sysid_core.measure.sweeps import design_experiments
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.context import RunContext
@@ -51,6 +55,9 @@ class Electrodes:
         #: where the run still is (its design is the first one's).
         self.paired_at: np.ndarray | None = None
         self.regrown_at: np.ndarray | None = None
+        #: The pairs that gave way, and whether the next iteration chooses again among the rest.
+        self.failed: set[frozenset[str]] = set()
+        self.again = False
 
     def regrown(self, bias: np.ndarray) -> bool:
         """Every electrode was offered again at ``bias``, where the first design was."""
@@ -80,11 +87,12 @@ class Electrodes:
         self.known.retune(pair.electrodes, bias)
 
     def give_way(self, info: Mapping[str, Any] | None, bias: np.ndarray) -> None:
-        """Tune every electrode from now on if the pair's answer (``info``) is beyond its reach.
+        """Offer every electrode again if the pair's answer (``info``) is beyond its reach.
 
-        Out of reach inside the limits, or the DAC's best code leaving more than the
-        acceptance (:func:`~sysid_core.verdict.dacfloor.beyond_reach`); every sweep set aside
-        counts again.
+        Out of reach inside the limits (the next iteration chooses again among the other
+        pairs: :meth:`rechoose`), or the DAC's best code leaving more than the acceptance
+        (every electrode is tuned from now on): :func:`~sysid_core.verdict.dacfloor.beyond_reach`.
+        Every sweep set aside counts again.
         """
         if self.offered is None:
             return
@@ -92,10 +100,14 @@ class Electrodes:
         if why is None:
             return
         every, pair, self.offered = self.offered, self.ctx.space.tuned, None
-        self.ctx.say(
-            f"the pair {' and '.join(pair)} cannot meet the goal: {why}; tuning every "
-            f"electrode ({', '.join(every)}) from now on"
+        self.failed.add(frozenset(pair))
+        self.again = "unreachable" in (info or {})
+        then = (
+            "choosing again among the other pairs by the law of every sweep"
+            if self.again
+            else f"tuning every electrode ({', '.join(every)}) from now on"
         )
+        self.ctx.say(f"the pair {' and '.join(pair)} cannot meet the goal: {why}; {then}")
         self.ctx.retune(every)
         self.known.retune(every, bias)
         self.regrown_at = self.paired_at
@@ -105,16 +117,39 @@ class Electrodes:
 
         The electrodes a pair was chosen before, once it gave way: by the first design's step,
         as the first ones were, so that the fit of every sweep holds each electrode's law. Not
-        where the run ``moved`` (its local design steps them all).
+        where the run ``moved`` (its local design steps them all) unless it chooses again.
         """
-        sp, lacking = self.ctx.space, [] if moved else self.known.unvaried()
-        if not lacking:
+        sp, lacking = self.ctx.space, [] if moved and not self.again else self.known.unvaried()
+        if lacking:
+            index = [sp.electrodes.index(e) for e in lacking]
+            rows = design_experiments(bias, index, self.ctx.step(1), sp.limits)[1:]
+            step = self._step(folder)
+            for row, name in zip(rows, lacking, strict=True):
+                step(row, name)
+        if self.again:
+            self.rechoose(bias)
+
+    def rechoose(self, bias: np.ndarray) -> None:
+        """Tune the pair that reaches degenerate modes with the least voltage by every sweep.
+
+        The linear law of every sweep so far, of every electrode; the pairs that gave way are
+        not chosen again. None left inside the limits: every electrode stays tuned.
+        """
+        self.again = False
+        ctx, sp = self.ctx, self.ctx.space
+        every, s = list(sp.tuned), ctx.fitter.structure
+        linear = type(s)(s.order, s.bias_terms, "linear")
+        model = ctx.fitter.fit(self.known.union(), linear)[0]
+        pair = least_voltage_pair(
+            model, bias[sp.index], sp.limits, sp.structure_potential, exclude=self.failed
+        )
+        if pair is None:
+            ctx.say("no other pair reaches degenerate modes inside the limits; tuning every one")
             return
-        index = [sp.electrodes.index(e) for e in lacking]
-        rows = design_experiments(bias, index, self.ctx.step(1), sp.limits)[1:]
-        step = self._step(folder)
-        for row, name in zip(rows, lacking, strict=True):
-            step(row, name)
+        ctx.say(pair.describe(every, "every sweep's"))
+        self.offered, self.paired_at = every, bias.copy()
+        ctx.retune(list(pair.electrodes))
+        self.known.retune(pair.electrodes, bias)
 
     def _step(self, folder: Path) -> Callable[[np.ndarray, str], None]:
         """Measure ``row``, the step of electrode ``name``, unless a sweep there is kept."""

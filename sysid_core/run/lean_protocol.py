@@ -52,6 +52,7 @@ __all__ = ["LeanProtocol"]
 #: Why a run measures the local design where it is now.
 MOVED = "the last answer moved the run (to the best reachable bias, or back to a measured one)"
 REGROWN = "every electrode is tuned from now on, where the first design was"
+REPAIRED = "another pair is tuned from now on, where the first design was"
 
 
 class LeanProtocol(Protocol):
@@ -100,16 +101,15 @@ class LeanProtocol(Protocol):
         self.known.begin(it)
         if self.previous is not None:
             return self._from_previous(it, bias, folder)
-        # every electrode offered again where the first design was: that design, over them all
+        # every electrode offered again where the first design was: that design, over the tuned
         again = self.electrodes.regrown(bias)
         chord = self.local and not (self.moved or again)  # local before, where it is: _reach
-        # the electrodes a pair was chosen before, once it gave way (none at the first)
+        # the electrodes a pair was chosen before, once it gave way, and maybe another pair
         self.electrodes.complete(bias, folder, self.moved)
         if it > 1 and self.moved:
             self.local = True
-            ctx.say(
-                f"iteration {it}: {REGROWN if again else MOVED}; measuring the local design there"
-            )
+            where = (REPAIRED if self.offered else REGROWN) if again else MOVED
+            ctx.say(f"iteration {it}: {where}; measuring the local design there")
         elif it > 1 and not self.local:
             why, prefit = self._design_now(it)
             if why is None:

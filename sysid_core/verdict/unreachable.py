@@ -74,8 +74,8 @@ def best_effort(
     run moves to the best reachable bias and measures the local design there.
 
     Nor that of a model of a pair of the electrodes while others can be offered again
-    (``reoffer``, :mod:`sysid_core.measure.pairing`): the run stays at its bias, where it tunes
-    every electrode from the next iteration on.
+    (``reoffer``, :mod:`sysid_core.measure.pairing`): the run stays at its bias, where it offers
+    every electrode again from the next iteration on.
     """
     refuted = (
         criterion_name == "degenerate"
@@ -131,7 +131,7 @@ def best_effort(
         "not concluded: the run stays at its bias and ends unconverged (more iterations, or "
         "a [model] drift, decide)"
         if last_iteration
-        else "staying at this bias to tune every electrode"
+        else "staying at this bias to offer every electrode again"
         if reoffer
         else "continuing from that bias"
     )

@@ -126,12 +126,14 @@ def test_a_run_given_six_electrodes_tunes_a_pair_and_reaches_the_goal(tmp_path: 
     )
 
 
-def test_a_pair_that_cannot_meet_the_goal_gives_way_to_every_electrode(tmp_path: Path) -> None:
+def test_a_pair_that_cannot_meet_the_goal_gives_way_to_the_next_pair(tmp_path: Path) -> None:
     """The cloverleaf with a bias law that softens B3 (``beta_3 = -0.03 / V^2``): by the first
     sweeps' law (±1 V) B2 and B3 meet the goal nearest, but the truth gives that pair no
-    degenerate bias inside ±10 V (its best split is 0.89 Hz), while all three electrodes have
-    one (the truth's own minimisation). The pair's model finds the goal out of reach, and the
-    run tunes every electrode from then on instead of ending with that error."""
+    degenerate bias inside ±10 V (its best split is 0.89 Hz). B1 and B2 have one, at
+    (2.041, 4.388) V with B3 at 0 V, where B3's law does not act (the closed form). The pair's
+    model finds the goal out of reach; the run offers every electrode again, the law of every
+    sweep chooses B1 and B2 (B2 and B3 are not chosen again), and the run ends there instead of
+    ending with that error or tuning all three."""
     device = CloverleafGyro(noise=1e-4, feedthrough=0, extra_modes=False, dac_bits=0)
     device.truth = dataclasses.replace(device.truth, bias_law=np.array([0.0, 0.0, -0.03]))
     config = {
@@ -146,13 +148,16 @@ def test_a_pair_that_cannot_meet_the_goal_gives_way_to_every_electrode(tmp_path:
             "pair": True,
         },
     }
-    summary = tune(config, tmp_path / "run", device=device, plots=False)
+    lines: list[str] = []
+    summary = tune(config, tmp_path / "run", device=device, plots=False, progress=lines.append)
     first = json.loads((tmp_path / "run" / "iter01" / "tuning.json").read_text())
     assert "electrodes B2, B3" in first["unreachable"]  # the pair's verdict, not concluded
-    assert summary.tuned == ALL
+    assert any("choosing again among the other pairs" in line for line in lines)
+    assert summary.tuned == ["B1", "B2"]
+    assert summary.bias[2] == 0.0  # B3 stays where it was
     f = device.truth.modal_frequencies_hz(device.applied_bias(np.asarray(summary.bias)))
     assert summary.converged and f[1] - f[0] <= 2 * 0.001
-    # a resume replays the same choice: the pair, then every electrode
+    # a resume replays the same choices: B2 and B3, then B1 and B2
     again = tune(config, tmp_path / "run", device=device, plots=False, resume=True)
     assert (again.tuned, again.bias, again.points) == (summary.tuned, summary.bias, summary.points)
 
