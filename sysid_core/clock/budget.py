@@ -11,8 +11,9 @@ follow:
   verification it is the run's error), and says so in one line with the time spent;
 * the verdicts that ask how many iterations remain (a split that falls too slowly,
   :func:`sysid_core.measure.contraction.too_slow`) count the iterations the budget still affords at
-  the mean cost of the iterations after the first (:meth:`Budget.iterations_left`), not the
-  ``max_iterations`` cap: raising the cap changes no verdict.
+  the mean cost of the iterations after the first (:meth:`Budget.iterations_left`), within the
+  ``max_iterations`` cap: a cap over what the budget affords changes no verdict, one under it
+  makes them count fewer iterations.
 
 The budget is a lab's choice (how long a gyro may occupy a bench). Unset, it is the larger of
 an hour (:data:`DEFAULT_MAX_BENCH_MINUTES`) and :data:`BUDGET_DWELLS` of the gyro's own dwells

@@ -135,10 +135,11 @@ class TuningConfig(_Strict):
     ``max_bench_minutes`` bounds the run by the bench clock (the device's time stamps, else the
     estimated bench time): no measurement starts that would end past it; unset, it is the
     larger of an hour and 1200 dwells of the gyro (:mod:`sysid_core.clock.budget`).
-    ``max_iterations`` only caps the iterations (default 300); no verdict depends on it.
-    ``pair`` (on by default): for degenerate modes with more than two ``electrodes``, a lean run
-    tunes the pair of them that reaches the goal with the least voltage, and every electrode
-    once that pair's answer is beyond its reach (:mod:`sysid_core.measure.pairing`).
+    ``max_iterations`` caps the iterations (default 300); the verdicts that look ahead count
+    the iterations the budget affords within it. ``pair`` (on by default): for degenerate modes
+    with more than two ``electrodes``, a lean run tunes the pair of them that reaches the goal
+    with the least voltage, and another pair, or every electrode, once that pair's answer is
+    beyond its reach (:mod:`sysid_core.measure.pairing`).
     """
 
     criterion: str = "degenerate"
