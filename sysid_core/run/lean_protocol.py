@@ -59,7 +59,7 @@ class LeanProtocol(Protocol):
     """Points where the modes are, every sweep kept (see the module).
 
     Later iterations fit every sweep while the last verification agrees with the model
-    (:meth:`_design_now`); after that, or a move to the best reachable bias, the sweeps near
+    (:meth:`_design_now`); after that, or a later move to the best reachable bias, the sweeps near
     the bias, measuring what they lack of the local design to meet (6) where it pays.
     """
 
@@ -83,6 +83,8 @@ class LeanProtocol(Protocol):
         self.probe_stood = False
         #: Which electrodes are tuned: a pair, or every one (:mod:`sysid_core.run.electrodes`).
         self.electrodes = Electrodes(ctx, self.known, self._learn)
+        #: The first model found the goal out of reach and moved the run: fit every sweep next.
+        self.far_first = False
 
     @property
     def offered(self) -> list[str] | None:  # type: ignore[override]
@@ -106,7 +108,8 @@ class LeanProtocol(Protocol):
         chord = self.local and not (self.moved or again)  # local before, where it is: _reach
         # the electrodes a pair was chosen before, once it gave way, and maybe another pair
         self.electrodes.complete(bias, folder, self.moved)
-        if it > 1 and self.moved:
+        far, self.far_first = self.far_first, False  # every sweep spans that step: fit them
+        if it > 1 and self.moved and not far:
             self.local = True
             where = (REPAIRED if self.offered else REGROWN) if again else MOVED
             ctx.say(f"iteration {it}: {where}; measuring the local design there")
@@ -242,10 +245,12 @@ class LeanProtocol(Protocol):
     ) -> None:
         """Keep whether the run moved, and the verified bias and modes if verified.
 
-        A pair whose answer (``info``) is beyond its reach gives way to every electrode
-        (:meth:`~sysid_core.run.electrodes.Electrodes.give_way`).
+        A pair whose answer (``info``) is beyond its reach gives way (``Electrodes.give_way``);
+        a first answer out of reach that moved the run is followed by the fit of every sweep.
         """
         self.moved = moved
+        first = self.known.epoch == 1 and not (self.local or self.splits or self.electrodes.offered)
+        self.far_first = moved and first and "unreachable" in (info or {})
         self.electrodes.give_way(info, bias)
         if ver.verified and ver.frequencies_hz is not None:
             self.last_verified = (bias.copy(), np.asarray(ver.frequencies_hz, dtype=float))
@@ -301,8 +306,7 @@ class LeanProtocol(Protocol):
         last = self.splits[-2] if len(self.splits) > 1 else None
         try:  # the local design's sweeps it would measure, priced like the verification's
             law, radius = ctx.config.model.stiffness, LOCAL_RADIUS * ctx.step(it)
-            design = ctx.design(vb, it)
-            apart = LEVEL_SHARE * ctx.step(it)
+            design, apart = ctx.design(vb, it), LEVEL_SHARE * ctx.step(it)
             missing = len(self.known.completing(vb, radius, law, design, ctx.space.index, apart))
             costs = Costs.of(ctx.cost_s, self.verify_points, missing)
         except SysidError:  # no local design there: the rate alone decides
@@ -322,13 +326,11 @@ class LeanProtocol(Protocol):
         """The radius of the nearest sweeps that meet (6), if their fit is the cheaper way (or 0).
 
         The rate of the last two verified splits, priced against the ``todo`` sweeps of the local
-        design, decides as in :meth:`_design_now` (``contraction.too_slow``): while verifying is
-        the quicker way, the answer of the sweeps that gave the last one (a design a few tenths
-        of a volt away, the windows since) is verified next. Before a second verified split, the
-        split located where the run started stands for the last (the first answer's rate, which
-        overstates the next one's: ``measure.contraction``). Only on a run that tracks the drift:
-        its answers are anchored on the latest windows, where a plain fit spreads the law's error
-        over sweeps a volt away (``lean.explained_gap``).
+        design, decides as in :meth:`_design_now`: while verifying is the quicker way, the answer
+        of the sweeps that gave the last one (a design a few tenths of a volt away, the windows
+        since) is verified next. Before a second verified split, the split located where the run
+        started stands for the last. Only on a run that tracks the drift: its answers are
+        anchored on the latest windows (``lean.explained_gap``).
         """
         first = self.known.first_split()
         splits = self.splits if len(self.splits) > 1 or first is None else [first, *self.splits]
@@ -355,10 +357,8 @@ class LeanProtocol(Protocol):
         """Measure one identification experiment where its modes should be (``first``: here).
 
         The band, a scout or a mode grid (:mod:`sysid_core.measure.lean`); one without both modes
-        is followed by the locating band, one four times as dense and the band at
-        ``resolution_hz``, each failed whole-band sweep first by windows (``measure.zoom``).
-        With ``[experiment] probe``, the run's first look at the band is a probe of a third of
-        its points, which also says whether the bench is quiet (:mod:`sysid_core.measure.locating`).
+        is followed by the locating bands (:mod:`sysid_core.measure.locating`), the first look
+        at the band by a probe of a third of its points (``[experiment] probe``).
         """
         ctx, points = self.ctx, self.ctx.config.experiment.locate_points
         guess, scout = self.known.guess(bias, ctx.fitter.structure, ctx.fitter.model)
