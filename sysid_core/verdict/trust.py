@@ -200,8 +200,8 @@ def trust_radius(last: dict[str, float] | None, measured_hz: float | None, start
     float
         ``GROW × radius_v`` after a step to the edge (:data:`EDGE`) whose split fell by at least
         :data:`AGREED` of the predicted fall; ``start`` after one that fell by less than
-        :data:`DISAGREED` of it (or rose, or was not verified); else ``radius_v`` (never under
-        ``start``). A run whose model predicts each step well then crosses volts in a few
+        :data:`DISAGREED` of it (or rose, or was not verified); else ``radius_v`` (either never
+        under ``start``). A run whose model predicts each step well then crosses volts in a few
         steps instead of a quarter volt at a time.
     """
     if last is None:
@@ -214,9 +214,8 @@ def trust_radius(last: dict[str, float] | None, measured_hz: float | None, start
     ratio = (last["from_split_hz"] - measured_hz) / promised
     if ratio < DISAGREED:
         return start
-    if ratio >= AGREED and last["length_v"] >= EDGE * last["radius_v"]:
-        return GROW * last["radius_v"]
-    return max(last["radius_v"], start)
+    grown = ratio >= AGREED and last["length_v"] >= EDGE * last["radius_v"]
+    return max(GROW * last["radius_v"] if grown else last["radius_v"], start)
 
 
 def beyond_tuning(

@@ -41,6 +41,7 @@ def _step(radius: float, length: float, before: float, predicted: float) -> dict
         (_step(1.0, 1.0, 1.0, 0.5), None, START),  # not verified
         (_step(1.0, 1.0, 1.0, 1.1), 0.5, START),  # its model promised no fall
         (_step(0.25, 0.24, 1.0, 0.5), 0.5, GROW * 0.25),  # a DAC code short of the edge
+        (_step(0.0625, 0.0625, 1.0, 0.0), 0.0, START),  # grown from under the local step
     ],
 )
 def test_the_radius_follows_how_well_the_model_predicted_the_last_step(
