@@ -40,3 +40,7 @@ def test_a_first_answer_out_of_reach_is_followed_by_the_fit_of_every_sweep(
     assert not list((tmp_path / "iter02").glob("exp*.nc"))  # no design at the limit
     assert device.true_split_hz(result.bias) < 0.2  # 5.2 Hz stuck at the limit
     assert np.allclose(result.bias[:2], [5.67, 4.13], atol=0.5)  # near the true bias
+    # a resume replays the same path: every sweep read back, the same answer and points
+    again = get_registry().device("random-gyro", seed=119, noise=1e-3)
+    resumed = tune(config, tmp_path, device=again, plots=False, resume=True)
+    assert (resumed.bias, resumed.points) == (result.bias, result.points)
