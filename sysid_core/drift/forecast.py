@@ -52,16 +52,18 @@ def windows_forecast(
     at: float,
     trend: TrendModel = LAB_TREND,
     own_variances: Sequence[float] | None = None,
+    times_s: Sequence[float] | None = None,
 ) -> tuple[np.ndarray, SplitForecast]:
     """The offset that gives ``moved`` the split the windows predict at ``at``, and the forecast.
 
     ``windows``: sweeps and their own single-bias models, oldest first; ``own_variances``:
-    each window's :func:`split_variance` where the caller keeps them (else computed). Each
-    window measures the split twice, each with its fit's variance: its own split (from its
-    split interval) and the run's model anchored on it alone (from the anchor's least
-    squares). The filter's model is ``trend`` with the variance scale the windows support
-    (:func:`~sysid_core.identification.trendnoise.fitted_trend`). The offset is traceless:
-    ``moved``'s mean frequency stays.
+    each window's :func:`split_variance` where the caller keeps them (else computed), and
+    ``times_s`` each window's :func:`~sysid_core.drift.windows.window_time` (NaN: the mean of
+    its stamps; None: computed). Each window measures the split twice, each with its fit's
+    variance: its own split (from its split interval) and the run's model anchored on it alone
+    (from the anchor's least squares). The filter's model is ``trend`` with the variance scale
+    the windows support (:func:`~sysid_core.identification.trendnoise.fitted_trend`). The
+    offset is traceless: ``moved``'s mean frequency stays.
 
     Raises
     ------
@@ -78,12 +80,14 @@ def windows_forecast(
     if own_variances is None:
         own_variances = [split_variance(own_model) for _, own_model in windows]
     own_variances = pooled_by_bias([sweep for sweep, _ in windows], own_variances)
-    for (sweep, own_model), own_variance in zip(windows, own_variances, strict=True):
+    if times_s is None:
+        timed = [window_time(sweep, own_model) for sweep, own_model in windows]
+        times_s = [np.nan if when is None else when for when in timed]
+    for (sweep, own_model), own_variance, when in zip(windows, own_variances, times_s, strict=True):
         own.append(_vector(split_offset(base, sweep, own_model), inv_root, scale))
         alone = frame.found if sweep is windows[-1][0] else anchor(model, [sweep], rate=False)
         anchored.append(_vector(alone.offset - frame.found.offset, inv_root, scale))
-        when = window_time(sweep, own_model)
-        times.append(float(stamps(sweep).mean()) if when is None else when)
+        times.append(float(stamps(sweep).mean()) if np.isnan(when) else float(when))
         variances.append(max(own_variance, _FLOOR_HZ2))
         cov = alone.offset_covariance
         anchored_var.append(

@@ -1,24 +1,20 @@
 """``[model] drift = "track"``: each answer solved for the gyro as it will be when it is verified.
 
 The run's fit keeps its bias law; :class:`Tracker` anchors that model on the run's latest verified
-windows (:func:`sysid_core.identification.anchor.anchor`: a stiffness offset, and its rate once
-two verifications are at hand) and moves it ahead to the time of the next verification window:
-the latest time stamp, plus the settling after the bias change, plus as long as the latest
-window took to its own time (:func:`sysid_core.drift.windows.window_time`). The split
-(and its orientation) of the moved model at the latest window's bias is then the one that
-window's own fit measured (:func:`sysid_core.identification.anchor.split_offset`): the anchor
-holds the model's mass and polynomial, and near degenerate modes what those miss it can take
-for a split.
+windows (:func:`sysid_core.identification.anchor.anchor`: a stiffness offset, and its rate once two
+verifications are at hand) and moves it ahead to the time of the next verification window: the
+latest time stamp, plus the settling after the bias change, plus as long as the latest window took
+to its own time (:func:`sysid_core.drift.windows.window_time`). The split (and its orientation) of
+the moved model at the latest window's bias is then the one that window's own fit measured
+(:func:`sysid_core.identification.anchor.split_offset`): the anchor holds the model's mass and
+polynomial, and near degenerate modes what those miss it can take for a split.
 
-A window measured before a local design is stale by the design's duration (four sweeps: 90-110 s
-on a 25 kHz gyro, in which charging moves the split by 2-4 mHz); when the latest window verified a
-near-degenerate split and sweeps were measured after it, :meth:`Tracker.stale` says so and the
-run measures the window again at its bias (:meth:`Tracker.refreshed`): the answer is then anchored
-on a window seconds old, and the two measurements of one bias give the drift's rate.
+A window measured before a local design is stale by the design's duration (90-110 s on a 25 kHz
+gyro: charging moves the split by 2-4 mHz): :meth:`Tracker.stale` has a near-degenerate one
+measured again at its bias (:meth:`Tracker.refreshed`), which also gives the drift's rate.
 
-The split at the next window is what the windows near degenerate modes predict there
-together (:func:`~sysid_core.drift.forecast.windows_forecast`: one Kalman filter on a line in
-time); with the latest window far from them, what that window predicts alone.
+The split at the next window is what the windows near degenerate modes predict together (one
+Kalman filter: :func:`~sysid_core.drift.forecast.windows_forecast`), else the latest one alone.
 """
 
 from __future__ import annotations
@@ -36,7 +32,7 @@ from sysid_core.data.schema import requested_bias
 from sysid_core.drift.forecast import interval_variance, windows_forecast, with_split_rate
 from sysid_core.drift.looks import next_look, rayleigh_point, split_bound
 from sysid_core.drift.policy import DriftPolicy
-from sysid_core.drift.windows import blind, least_of, to_end_s
+from sysid_core.drift.windows import blind, least_of, to_end_s, window_time
 from sysid_core.errors import ModelError
 from sysid_core.identification.anchor import anchor
 from sysid_core.identification.drift import OffsetDrift, offset_drift
@@ -56,11 +52,12 @@ from sysid_core.tuning.confidence import split_interval
 __all__ = ["NEAR_ACCEPTANCES", "Tracker"]
 
 #: Measures, saves and judges a sweep: ``(bias, frequencies, path, band)`` to ``(sweep, its
-#: single-bias model, evidence)``
-#: (the protocol's :meth:`~sysid_core.run.protocol_base.Protocol.sweep`).
+#: single-bias model, evidence)`` (:meth:`~sysid_core.run.protocol_base.Protocol.sweep`).
 Sweep = Callable[
     [np.ndarray, np.ndarray, Path, bool], tuple[xr.Dataset, FittedModel, WindowAssessment]
 ]
+#: Values kept per window, for the windows chosen (None: not every one was kept).
+Kept = list[float] | None
 
 #: Earlier windows anchor the model when their split was under this many acceptances.
 NEAR_ACCEPTANCES = 10.0
@@ -90,15 +87,15 @@ class Tracker:
     keep: int = 4
     trend: TrendModel = LAB_TREND
     windows: list[xr.Dataset] = field(default_factory=list)
-    #: Each window's split as near degenerate modes as its fit allows (``least_split``,
-    #: :mod:`sysid_core.drift.windows`).
+    #: Each window's split as near degenerate modes as its fit allows (``windows.least_split``).
     splits: list[float] = field(default_factory=list)
-    #: Each window's own split's variance (:func:`~sysid_core.drift.forecast.split_variance`).
+    #: Each window's own split's variance (:func:`~sysid_core.drift.forecast.split_variance`)
+    #: and its time (:func:`~sysid_core.drift.windows.window_time`; NaN: its stamps' mean).
     variances: list[float] = field(default_factory=list)
+    times: list[float] = field(default_factory=list)
     #: Each window's own single-bias model.
     models: list[FittedModel] = field(default_factory=list)
-    #: Each window's own fit has a mode that none of its points came near (``blind``,
-    #: :mod:`sysid_core.drift.windows`).
+    #: Whether each window's own fit has a mode none of its points came near (``windows.blind``).
     blind: list[bool] = field(default_factory=list)
     #: The rates the last :meth:`now` found (common and split), or None.
     rates: OffsetDrift | None = None
@@ -125,9 +122,8 @@ class Tracker:
     ) -> Tracker | None:
         """The tracker of a run whose ``[model] drift`` is ``drift``, or None.
 
-        ``"track"`` and ``"auto"`` (which tracks only on a bench with a clock, the run's
-        choice) keep one; earlier windows anchor it when under :data:`NEAR_ACCEPTANCES`
-        acceptances.
+        ``"track"`` and ``"auto"`` (on a bench with a clock) keep one; earlier windows anchor
+        it when under :data:`NEAR_ACCEPTANCES` acceptances.
         """
         if not drift.may_track:
             return None
@@ -149,7 +145,7 @@ class Tracker:
             self._keep(ver.sweep, float(ver.split_hz), ver.model, unseen)
         elif ver.status == "located":
             self.windows, self.splits, self.models, self.blind = [], [], [], []
-            self.variances = []
+            self.variances, self.times = [], []
 
     def _keep(
         self, sweep: xr.Dataset, split_hz: float, model: FittedModel | None, unseen: bool
@@ -161,6 +157,7 @@ class Tracker:
         self.variances.append(
             float("nan") if model is None else interval_variance(model.split_hz([]), interval)
         )
+        self.times.append(float("nan") if (when := window_time(sweep, model)) is None else when)
         self.models.append(model)  # type: ignore[arg-type]
         self.blind.append(unseen)
 
@@ -266,7 +263,7 @@ class Tracker:
         self.forecast = None
         if chosen_own:
             offset, self.forecast = windows_forecast(
-                model, moved, chosen_own, at, self.trend, self.own_variances(chosen_own)
+                model, moved, chosen_own, at, self.trend, *self.kept(chosen_own)
             )
             moved = dataclasses.replace(moved, K0=np.asarray(moved.K0) + offset)
             span = np.concatenate([stamps(w) for w, _ in chosen_own])
@@ -324,11 +321,16 @@ class Tracker:
             return near, len(self.windows) - len(usable)
         return [(w, own) for w, own, _ in usable[-1:]], len(self.windows) - len(usable)
 
-    def own_variances(self, chosen: list[tuple[xr.Dataset, FittedModel]]) -> list[float] | None:
-        """The kept variances of ``chosen`` windows, or None where some were not kept."""
-        kept = dict(zip(map(id, self.windows), self.variances, strict=False))
-        found = [kept.get(id(sweep), float("nan")) for sweep, _ in chosen]
-        return None if any(np.isnan(found)) else found
+    def kept(self, chosen: list[tuple[xr.Dataset, FittedModel]]) -> tuple[Kept, Kept]:
+        """The kept variances and times of ``chosen`` windows (each None unless all kept)."""
+        index = {id(w): k for k, w in enumerate(self.windows)}
+        at = [index.get(id(sweep), len(self.windows)) for sweep, _ in chosen]
+
+        def of(values: list[float]) -> Kept:
+            found = [values[k] if k < len(values) else np.nan for k in at]
+            return None if np.isnan(found).any() else found
+
+        return of(self.variances), of(self.times)
 
     def end_split(self, model: FittedModel, sweep: xr.Dataset) -> tuple[float, float] | None:
         """The split at the end of the latest window by the windows' forecast, or None.
@@ -345,9 +347,7 @@ class Tracker:
             return None
         chosen, _ = self.filtered()
         end = float(stamps(sweep).max())
-        offset, found = windows_forecast(
-            model, model, chosen, end, self.trend, self.own_variances(chosen)
-        )
+        offset, found = windows_forecast(model, model, chosen, end, self.trend, *self.kept(chosen))
         self.at_end = found
         at_end = dataclasses.replace(model, K0=np.asarray(model.K0) + offset)
         bias = np.asarray(sweep.sel(electrode=list(model.electrodes))["bias"].values[0])

@@ -76,7 +76,7 @@ def window_time(sweep: xr.Dataset, own: FittedModel | None) -> float | None:
     t = stamps(sweep)
     if not t.size:
         return None
-    at = point_times(sweep, 0) if "experiment" in sweep.dims else None
+    at = point_times(sweep, 0) if "experiment" in sweep["time_s"].dims else None
     weights = None if at is None else _shares(sweep, own, at)
     if at is None or weights is None:
         return float(t.mean())
