@@ -2,12 +2,12 @@
 
 A lean run's first sweep only has to find the modes; the mode grids measure them. With one
 tone every point costs a dwell (10 s on the cloverleaf: 10 minutes for the 61 points of
-``locate_points``), and a sweep of a third of them finds the modes as well where they are not
+``locate_points``), and a sweep of a quarter of them finds the modes as well where they are not
 much narrower than its step.
 
 So on a bench with a clock (``[experiment] probe = "auto"``, the default: the device states its
 dwell per acquisition, :func:`probe_first`), or with ``probe = true``, the run measures a *probe*
-first, every third point of the locating sweep (:func:`probe_points`: 21 of 61). A probe that
+first, every fourth point of the locating sweep (:func:`probe_points`: 16 of 61). A probe that
 shows both modes stands as the locating sweep. One that does not is followed by windows around
 the modes its fit placed, as a failed locating sweep is (:mod:`sysid_core.measure.zoom`), when
 they take fewer points than the locating sweep, and by the locating sweep if they do not show
@@ -29,7 +29,7 @@ because the fits of fast gyros at 60 dB lean on the far response that sweep meas
 run (a first answer at the bias limit) still pays for the probe alone. A device without a clock
 (nothing says what a point costs) keeps the whole locating sweep first.
 
-Why the whole locating sweep rather than the probe's missing two thirds, where one is needed:
+Why the whole locating sweep rather than the probe's missing three quarters, where one is needed:
 completed by a second pass interleaved with the first, the points around a mode come from two
 times a quarter of an hour apart on a slow gyro, between which a drifting bench moves the mode;
 a locating sweep made so lost lab gyros (72 of 96 within 2 mHz against 77, the cause not
@@ -68,9 +68,12 @@ __all__ = [
 #: at 60 dB (median 6-10 %).
 QUIET_NOISE = 0.02
 #: The probe measures every this many points of the locating sweep,
-PROBE_EVERY = 3
-#: but at least this many: a 21-point locating sweep cost nothing measurable at 80 dB.
-PROBE_MIN_POINTS = 21
+PROBE_EVERY = 4
+#: but at least this many: two whole acquisitions of an eight-tone lock-in. Every fourth point
+#: rather than every third (21) shortened 20 of 24 one-tone runs of random gyros and 19 of 24
+#: eight-tone ones (docs/studies/dwells.md, "A probe of a quarter of the locating points");
+#: every sixth (11) lengthened 7 one-tone runs of 24, two of them by half.
+PROBE_MIN_POINTS = 16
 
 #: One sweep at the run's bias: frequencies, file, whole band or not -> data, model, evidence.
 SweepAt = Callable[[np.ndarray, Path, bool], tuple[xr.Dataset, FittedModel, WindowAssessment]]

@@ -219,7 +219,7 @@ class ExperimentConfig(_Strict):
 
     ``probe`` (default ``"auto"``: on when the device states its dwell per acquisition, a
     bench with a clock; ``true``/``false`` force it): the run's first look at the band is a
-    probe of a third of the locating sweep's points (at least 21). On a quiet bench (the probe
+    probe of every fourth locating point (at least 16). On a quiet bench (the probe
     shows both modes and its noise is under 2 % of its response) it stands as the locating
     sweep, the first design is one-sided under the ``auto`` law, and scouts step as the probe
     does; on a noisy one the whole locating sweep and a two-sided design follow

@@ -358,7 +358,7 @@ class LeanProtocol(Protocol):
 
         The band, a scout or a mode grid (:mod:`sysid_core.measure.lean`); one without both modes
         is followed by the locating bands (:mod:`sysid_core.measure.locating`), the first look
-        at the band by a probe of a third of its points (``[experiment] probe``).
+        at the band by a probe of a quarter of its points (``[experiment] probe``).
         """
         ctx, points = self.ctx, self.ctx.config.experiment.locate_points
         guess, scout = self.known.guess(bias, ctx.fitter.structure, ctx.fitter.model)

@@ -138,15 +138,17 @@ def test_a_stale_window_is_measured_again_and_gives_the_rates(tmp_path: Path) ->
 
 
 def test_a_window_blind_to_one_of_its_modes_does_not_give_its_split(tmp_path: Path) -> None:
-    """Random gyro 115 (10.9 kHz, the lab's bench): the first answer's window stood coarse
-    (2.56 Hz, far over the acceptance) with a fitted mode that none of its points came near;
+    """Random gyro 102 (1.72 kHz, the lab's bench): the first answer's window stood coarse
+    (499 mHz, far over the acceptance) with a fitted mode that none of its points came near;
     the tracked model does not take that window's own split, says so, and the run converges
-    (0.66 mHz true). The rule was found on gyro 119 on a quiet bench (``probe = false``), whose
-    blind window, taken at its word, pulled every later answer 11 Hz off; the measurement rules
-    since no longer make that window (gyros 101-130 on that bench: two blind windows, 115 and
-    116, whose ends the rule does not change), so this case shows the rule at work, not the harm
-    it prevents; :func:`test_a_mode_that_no_point_came_near_is_blind` tests the judgement."""
-    tracked, summary, lines = run(tmp_path, "track", seed=115)
+    (0.88 mHz true; gyro 115 showed it until the probe took every fourth locating point). The
+    rule was found on gyro 119 on a quiet bench (``probe = false``), whose blind window, taken
+    at its word, pulled every later answer 11 Hz off; the measurement rules since no longer
+    make that window (gyros 101-130 on that bench, when the probe took every third point: two
+    blind windows, 115 and 116, whose ends the rule does not change), so this case shows the
+    rule at work, not the harm it prevents; :func:`test_a_mode_that_no_point_came_near_is_blind`
+    tests the judgement."""
+    tracked, summary, lines = run(tmp_path, "track", seed=102)
     assert any("anchored on" in line for line in lines)
     assert any("give no split of their own" in line for line in lines)
     assert summary["converged"] and tracked < ACCEPTANCE

@@ -175,16 +175,16 @@ def test_sweeps_an_hour_old_are_fitted_while_the_split_falls(tmp_path: Path) -> 
 def test_a_fast_fall_after_a_local_design_verifies_the_answer_of_the_sweeps_it_has(
     tmp_path: Path,
 ) -> None:
-    """Random gyro 819 (8 tones, a good lab's clock, first design ±1 V, six of its seven
-    electrodes): the pair chosen, B1 and B2, cannot reach degenerate modes, so iteration 2
-    measures the design of every electrode where the first was, and its answer, 2.3 V away,
-    takes the split from 3.9 Hz to 1.07 Hz. A new local design there is twelve sweeps; at the
-    rate its splits fall the verifications are expected to cost less. The run fits the nearest
-    sweeps that meet the rank condition instead, at iterations 3, 4 and 5 (1071 -> 467 -> 231
-    -> 2.9 mHz), and converges (0.30 mHz true): no design after the second iteration. (Gyro
-    796 showed it until the pair was chosen among the first three electrodes stepped; its pair
-    now holds.)"""
-    device, options = good_lab(819, 0.2, tones=8)
+    """Random gyro 834 (8 tones, a good lab's clock, first design ±1 V, five electrodes): the pair
+    chosen first, B1 and B3, cannot reach degenerate modes, so the run chooses B1 and B5 and
+    iteration 2 measures their local design where the first was; its answer, 3.2 V away, takes
+    the split from 3.48 Hz to 205 mHz. A new local design there would be four more sweeps; at
+    the rate its splits fall the verifications are expected to cost less. The run fits the
+    nearest sweeps that meet the rank condition instead, at iterations 3, 4 and 5 (205 -> 22.7
+    -> 1.84 -> 0.52 mHz), and converges (0.41 mHz true): no design after the second iteration.
+    (Gyros 796 and 819 showed it before the pair was chosen among the first three electrodes
+    stepped and before the probe took every fourth locating point.)"""
+    device, options = good_lab(834, 0.2, tones=8)
     config = degenerate_config(device, options, 300, 0.001, experiment={"bias_step": 1.0})
     config["tuning"] |= {"electrodes": list(device.electrodes[:6]), "pair": True}
     lines: list[str] = []

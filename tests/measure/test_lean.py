@@ -176,10 +176,10 @@ def test_a_probe_on_a_quiet_bench_is_the_locating_sweep_and_the_design_one_sided
     )
     summary = run.run()
     assert summary.converged and dev.true_split_hz(summary.bias) <= 0.001
-    said = [line for line in lines if line.startswith("iter01/exp0.nc: a probe of 21 points")]
+    said = [line for line in lines if line.startswith("iter01/exp0.nc: a probe of 16 points")]
     assert said and "stands as the locating sweep" in said[0]
     assert said[0].endswith(": a quiet bench")
-    # 21 of the 61 locating points find the bench quiet: they stand as the locating sweep, and
+    # 16 of the 61 locating points find the bench quiet: they stand as the locating sweep, and
     # the first design is one-sided (3 biases); the scouts step as the probe did (8 points)
     assert (
         [n for _, n in dev.calls[:3]]
@@ -188,7 +188,7 @@ def test_a_probe_on_a_quiet_bench_is_the_locating_sweep_and_the_design_one_sided
             lean.SCOUT_MIN_POINTS,
             lean.SCOUT_MIN_POINTS,
         ]
-        == [21, 8, 8]
+        == [16, 8, 8]
     )
     names = files(tmp_path, "iter01")
     assert names[:3] == ["exp0.nc", "exp1.nc", "exp2.nc"]
@@ -213,8 +213,8 @@ def test_a_probe_on_a_noisy_bench_stands_as_the_locating_sweep_but_the_design_is
         progress=lines.append,
     )
     run.run()
-    assert dev.calls[0][1] == 21
-    said = [line for line in lines if "exp0.nc: a probe of 21 points over the band" in line]
+    assert dev.calls[0][1] == 16
+    said = [line for line in lines if "exp0.nc: a probe of 16 points over the band" in line]
     assert said and "stands as the locating sweep" in said[0]
     assert said[0].endswith(": not a quiet bench")
     assert float(said[0].split("its noise is ")[1].split("%")[0]) / 100 > QUIET_NOISE
@@ -263,23 +263,23 @@ def test_a_clocked_device_is_probed_by_default_and_one_without_a_clock_is_not(
         config, tmp_path / "clocked", device=clocked, plots=False, progress=lines.append
     ).run()
     # the same configuration: the whole locating sweep without a clock, the probe with one
-    assert frozen.calls[0][1] == lean.LOCATE_POINTS and clocked.calls[0][1] == 21
-    assert any(line.startswith("iter01/exp0.nc: a probe of 21 points") for line in lines)
+    assert frozen.calls[0][1] == lean.LOCATE_POINTS and clocked.calls[0][1] == 16
+    assert any(line.startswith("iter01/exp0.nc: a probe of 16 points") for line in lines)
 
 
 def test_a_locating_sweep_no_larger_than_a_probe_is_judged_itself(tmp_path: Path) -> None:
     config = probing(max_iterations=1)
-    config["experiment"]["locate_points"] = 21
+    config["experiment"]["locate_points"] = 16
     dev = Recording(seed=1)
     TuningRun(parse_config(config), tmp_path, device=dev, plots=False).run()
-    assert dev.calls[0][1] == 21  # no probe before it; quiet, so the design is one-sided
+    assert dev.calls[0][1] == 16  # no probe before it; quiet, so the design is one-sided
     names = files(tmp_path, "iter01")
     assert [f for f in names if f.startswith("exp") and "-" not in f] == [
         "exp0.nc",
         "exp1.nc",
         "exp2.nc",
     ]
-    assert probe_points(21) == probe_points(31) == 21 and probe_points(121) == 41
+    assert probe_points(16) == probe_points(41) == 16 and probe_points(121) == 31
 
 
 def test_a_v2_gyro_tunes_on_fewer_points_with_the_linear_law(

@@ -59,18 +59,19 @@ def test_a_narrow_mode_gyro_is_located_by_windows_not_by_a_denser_band(tmp_path:
 def test_a_probe_that_misses_narrow_modes_is_followed_by_windows_not_the_band(
     tmp_path: Path,
 ) -> None:
-    """The same gyro with a probe first (``probe = true``): its 21 points step 5 Hz and its fit
+    """The same gyro with a probe first (``probe = true``): its 16 points step 6.6 Hz and its fit
     fails; windows around the modes it placed (cheaper than the 61-point locating band) show
     them. Measured: no locating band in the first design. Its scouts step 26 bandwidths (8
     points; 19 with 11 points) and the first answer's law is a guess: with 11-point scouts a
     true split of 0.95 mHz after 4 iterations (178 points), with 8 a window missed and a local
-    design, 0.32 mHz after 5 (391 points)."""
+    design, 0.32 mHz after 5 (391 points; 514 since the probe takes 16 points, 6.6 Hz apart,
+    and its windows 34)."""
     out, device, result, lines = _gyro_112(tmp_path, {"probe": True}, iterations=5)
     assert (out / "iter01" / "exp0-zoom.nc").exists()
     assert not list(out.glob("iter01/*locate*.nc"))
     f = device.true_modal_frequencies_hz(result.bias)
     assert f[1] - f[0] <= ACCEPTANCE
-    said = [line for line in lines if "exp0.nc: a probe of 21 points" in line]
+    said = [line for line in lines if "exp0.nc: a probe of 16 points" in line]
     assert said and "; windows around 148" in said[0] and said[0].endswith("first")
 
 
