@@ -58,6 +58,7 @@ __all__ = [
     "MAX_FINE_HALF_POINTS",
     "MAX_HALF_POINTS",
     "POINTS_PER_BANDWIDTH",
+    "QUIET_SCOUT_POINTS",
     "RESOLVED_STEP",
     "SCOUT_MIN_POINTS",
     "SCOUT_SPLITS",
@@ -83,6 +84,15 @@ SCOUT_BANDWIDTHS = 10.0
 #: have held. With one tone, 8 instead of ``MIN_POINTS`` (11) saves 3 dwells a scout: 12-15 of
 #: the median run on our random gyros (docs/studies/information.md, "Scouts of eight points").
 SCOUT_MIN_POINTS = 8
+#: ... and on a quiet bench (the probe's noise under
+#: :data:`~sysid_core.measure.locating.QUIET_NOISE` of its response), where the fit of a few
+#: points locates the modes as the probe's did: 4 points determine the fit, 6 leave half again.
+#: With one tone 2 dwells less a scout (one-tone medians of our random gyros 95.5 -> 91.1 and
+#: 93.4 -> 88.9 dwells, docs/studies/dwells.md, "Scouts of six points on a quiet bench"); with
+#: eight tones a scout is one acquisition either way. On a noisy bench 6 points lost the modes
+#: of narrow-mode gyros and the first law of others (gyro 119 at 60 dB: 0.58 Hz after six
+#: iterations instead of 1.8 mHz).
+QUIET_SCOUT_POINTS = 6
 #: Most points of a lean run's whole-band sweep (it only locates the modes); ``[experiment]
 #: locate_points`` sets it (31: less time, less accurate in the lab:
 #: docs/studies/bench-time-lab.md).
@@ -98,7 +108,7 @@ EXPLAIN_FLOOR_HZ = 1e-4
 LOCAL_RADIUS = 1.5
 
 
-def scout_grid(guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
+def scout_grid(guess: ModeGuess, plan: SweepPlan, quiet: bool = False) -> np.ndarray:
     """Windows that locate modes which may have moved since ``guess`` by an unknown amount.
 
     Around each mode ``± m`` at the band's resolution, inside the band (widened to hold the
@@ -106,7 +116,8 @@ def scout_grid(guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
     the windows would cover most of it): ``m = σ + SCOUT_BANDWIDTHS × bw`` when the guess
     carries an uncertainty ``σ`` (the move expected from the electrodes stepped before),
     else ``max(SCOUT_SPLITS × split, SCOUT_BANDWIDTHS × bw)``; in whole acquisitions
-    (:func:`~sysid_core.measure.sweeps.acquisition_grid`), at least :data:`SCOUT_MIN_POINTS`.
+    (:func:`~sysid_core.measure.sweeps.acquisition_grid`), at least :data:`SCOUT_MIN_POINTS`
+    (:data:`QUIET_SCOUT_POINTS` on a ``quiet`` bench).
     """
     f, bw = guess.frequencies_hz, guess.bandwidth_hz
     sigma = float(guess.uncertainty_hz.max())
@@ -119,7 +130,8 @@ def scout_grid(guess: ModeGuess, plan: SweepPlan) -> np.ndarray:
         windows = [(windows[0][0], windows[1][1])]
     if sum(hi - lo for lo, hi in windows) >= 0.8 * (bhi - blo):
         windows = [(blo, bhi)]
-    points = acquisition_grid(windows, plan.resolution_hz, plan.tones, fewest=SCOUT_MIN_POINTS)
+    fewest = QUIET_SCOUT_POINTS if quiet else SCOUT_MIN_POINTS
+    points = acquisition_grid(windows, plan.resolution_hz, plan.tones, fewest=fewest)
     return merge(points, 1e-9 * float(f.max()))
 
 

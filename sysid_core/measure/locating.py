@@ -18,8 +18,9 @@ probe's step, then to the locating sweep (:class:`~sysid_core.run.lean_protocol.
 The probe's measured noise (:func:`bench_noise`) decides the first design
 (:meth:`~sysid_core.run.context.RunContext.design`): under :data:`QUIET_NOISE` of its response
 (a *quiet* bench), under the ``auto`` stiffness law, the first design is one-sided (``n + 1``
-biases), the designs after it two-sided, and scouts step as the probe did; otherwise the first
-design is two-sided too.
+biases), the designs after it two-sided, and scouts step as the probe did, with at least 6
+points (:data:`~sysid_core.measure.lean.QUIET_SCOUT_POINTS`); otherwise the first design is
+two-sided too.
 
 Measured (docs/studies/dwells.md): on random gyros of a good lab with 8 tones and 2 electrodes,
 keeping a noisy probe that shows both modes cuts the median from 37 to 30 dwells and from 199 to

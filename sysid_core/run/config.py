@@ -222,10 +222,10 @@ class ExperimentConfig(_Strict):
     probe of every fourth locating point (at least 16). On a quiet bench (the probe
     shows both modes and its noise is under 2 % of its response) it stands as the locating
     sweep, the first design is one-sided under the ``auto`` law, and scouts step as the probe
-    does; on a noisy one the whole locating sweep and a two-sided design follow
-    (:mod:`sysid_core.measure.locating`). With a clock (docs/studies/bench-time-lab.md) the
-    cloverleaf reaches a true split of 1 mHz in a median of 14.4 minutes with one tone instead of
-    30.0.
+    does, with at least 6 points instead of 8; on a noisy one the whole locating sweep and a
+    two-sided design follow (:mod:`sysid_core.measure.locating`). With a clock
+    (docs/studies/bench-time-lab.md) the cloverleaf reaches a true split of 1 mHz in a median of
+    14.4 minutes with one tone instead of 30.0.
 
     ``max_passes`` (default 1: never repeat) bounds how many passes of a verification window
     are averaged when its noise hides the split (:mod:`sysid_core.measure.passes`): for a bench of

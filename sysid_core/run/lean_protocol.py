@@ -76,7 +76,7 @@ class LeanProtocol(Protocol):
         #: The points of each sweep of the latest verification (what one costs).
         self.verify_points: list[int] = []
         #: With ``probe``, the run's first look at the band is a probe (``measure.locating``);
-        #: whether it found the bench quiet decides the first design.
+        #: whether it found the bench quiet decides the first design and the scouts' floor.
         self.quiet, self.scout_plan = False, self.locate_plan
         #: Whether the probe showed both modes: a band at its step shows this gyro's modes on
         #: this bench, and is the first band a later sweep that misses them falls back to.
@@ -369,7 +369,7 @@ class LeanProtocol(Protocol):
             first = locate
         elif first is None and scout:
             assert guess is not None
-            grid = scout_grid(guess, self.scout_plan)
+            grid = scout_grid(guess, self.scout_plan, self.quiet)
             first = locate if grid.size >= locate.size else grid
         elif first is None:
             assert guess is not None

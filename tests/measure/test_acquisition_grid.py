@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sysid_core.clock.benchtime import acquisitions
-from sysid_core.measure.lean import SCOUT_MIN_POINTS, ModeGuess, scout_grid
+from sysid_core.measure.lean import QUIET_SCOUT_POINTS, SCOUT_MIN_POINTS, ModeGuess, scout_grid
 from sysid_core.measure.sweeps import MIN_POINTS, SweepPlan, acquisition_grid, grid, n_points
 
 
@@ -71,3 +71,20 @@ def test_a_scout_of_eleven_points_with_eight_tones_is_one_acquisition() -> None:
     assert eight.min() >= one.min() and eight.max() <= one.max()
     thirteen = scout_grid(guess, dataclasses.replace(plan, tones=13))
     assert thirteen.size == 13
+
+
+def test_a_quiet_benchs_scout_has_a_lower_floor_only_where_it_saves_an_acquisition() -> None:
+    """The same windows on a quiet bench: a one-tone scout of 6 points, not 8 (2 dwells less);
+    with eight tones it is one acquisition of 8 either way, and with two tones 6 points are
+    three acquisitions instead of four."""
+    guess = ModeGuess.of([4400.0, 4401.0], [0.05, 0.05])
+    plan = SweepPlan((4300.0, 4500.0), 0.5, 6.0, 0.05, 6.0, 0.05, 20_000)
+    quiet = scout_grid(guess, plan, quiet=True)
+    assert quiet.size == QUIET_SCOUT_POINTS < SCOUT_MIN_POINTS == scout_grid(guess, plan).size
+    assert quiet.min() >= scout_grid(guess, plan).min()  # the same windows, sparser
+    assert quiet.max() <= scout_grid(guess, plan).max()
+    eight = dataclasses.replace(plan, tones=8)
+    assert np.array_equal(scout_grid(guess, eight, quiet=True), scout_grid(guess, eight))
+    two = dataclasses.replace(plan, tones=2)
+    assert acquisitions(scout_grid(guess, two, quiet=True).size, 2) == 3
+    assert acquisitions(scout_grid(guess, two).size, 2) == 4

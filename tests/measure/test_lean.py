@@ -180,15 +180,15 @@ def test_a_probe_on_a_quiet_bench_is_the_locating_sweep_and_the_design_one_sided
     assert said and "stands as the locating sweep" in said[0]
     assert said[0].endswith(": a quiet bench")
     # 16 of the 61 locating points find the bench quiet: they stand as the locating sweep, and
-    # the first design is one-sided (3 biases); the scouts step as the probe did (8 points)
+    # the first design is one-sided (3 biases); the scouts step as the probe did (6 points)
     assert (
         [n for _, n in dev.calls[:3]]
         == [
             probe_points(lean.LOCATE_POINTS),
-            lean.SCOUT_MIN_POINTS,
-            lean.SCOUT_MIN_POINTS,
+            lean.QUIET_SCOUT_POINTS,
+            lean.QUIET_SCOUT_POINTS,
         ]
-        == [16, 8, 8]
+        == [16, 6, 6]
     )
     names = files(tmp_path, "iter01")
     assert names[:3] == ["exp0.nc", "exp1.nc", "exp2.nc"]
