@@ -71,7 +71,7 @@ QUIET_NOISE = 0.02
 #: The probe measures every this many points of the locating sweep,
 PROBE_EVERY = 4
 #: but at least this many: two whole acquisitions of an eight-tone lock-in. Every fourth point
-#: rather than every third (21) shortened 20 of 24 one-tone runs of random gyros and 19 of 24
+#: rather than every third (21) shortened 20 of 24 one-tone runs of random gyros and 18 of 24
 #: eight-tone ones (docs/studies/dwells.md, "A probe of a quarter of the locating points");
 #: every sixth (11) lengthened 7 one-tone runs of 24, two of them by half.
 PROBE_MIN_POINTS = 16
