@@ -85,13 +85,12 @@ SCOUT_BANDWIDTHS = 10.0
 #: the median run on our random gyros (docs/studies/information.md, "Scouts of eight points").
 SCOUT_MIN_POINTS = 8
 #: ... and on a quiet bench (the probe's noise under
-#: :data:`~sysid_core.measure.locating.QUIET_NOISE` of its response), where the fit of a few
-#: points locates the modes as the probe's did: 4 points determine the fit, 6 leave half again.
-#: With one tone 2 dwells less a scout (one-tone medians of our random gyros 95.5 -> 91.1 and
-#: 93.4 -> 88.9 dwells, docs/studies/dwells.md, "Scouts of six points on a quiet bench"); with
-#: eight tones a scout is one acquisition either way. On a noisy bench 6 points lost the modes
-#: of narrow-mode gyros and the first law of others (gyro 119 at 60 dB: 0.58 Hz after six
-#: iterations instead of 1.8 mHz).
+#: :data:`~sysid_core.measure.locating.QUIET_NOISE` of its response): 4 points determine the
+#: one-bias fit, 6 leave half again as many equations to average the noise, which on a quiet
+#: bench is small against the modes' tails that locate them. With one tone that is 2 dwells less
+#: a scout; with eight tones a scout is one acquisition either way. On a noisy bench the few
+#: extra equations cannot average the noise away, so scouts keep 8 (the measurements, on both
+#: benches: docs/studies/dwells.md, "Scouts of six points on a quiet bench").
 QUIET_SCOUT_POINTS = 6
 #: Most points of a lean run's whole-band sweep (it only locates the modes); ``[experiment]
 #: locate_points`` sets it (31: less time, less accurate in the lab:

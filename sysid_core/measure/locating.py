@@ -70,10 +70,10 @@ __all__ = [
 QUIET_NOISE = 0.02
 #: The probe measures every this many points of the locating sweep,
 PROBE_EVERY = 4
-#: but at least this many: two whole acquisitions of an eight-tone lock-in. Every fourth point
-#: rather than every third (21) shortened 20 of 24 one-tone runs of random gyros and 18 of 24
-#: eight-tone ones (docs/studies/dwells.md, "A probe of a quarter of the locating points");
-#: every sixth (11) lengthened 7 one-tone runs of 24, two of them by half.
+#: but at least this many: two whole acquisitions of an eight-tone lock-in. A sparser probe
+#: saves a dwell a point with one tone but misses the modes of more gyros, and what follows a
+#: miss costs more than the points saved (every third, fourth and sixth point measured:
+#: docs/studies/dwells.md, "A probe of a quarter of the locating points").
 PROBE_MIN_POINTS = 16
 
 #: One sweep at the run's bias: frequencies, file, whole band or not -> data, model, evidence.
