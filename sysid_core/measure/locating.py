@@ -12,15 +12,16 @@ shows both modes stands as the locating sweep. One that does not is followed by 
 the modes its fit placed, as a failed locating sweep is (:mod:`sysid_core.measure.zoom`), when
 they take fewer points than the locating sweep, and by the locating sweep if they do not show
 the modes either; the probe is kept with every other sweep. A probe that showed both modes has
-measured that its step shows this gyro's modes on this bench: a later sweep that misses them
-(a scout whose electrode moved them further than it reached) falls back first to a band at the
-probe's step, then to the locating sweep (:class:`~sysid_core.run.lean_protocol.LeanProtocol`).
+measured that its step shows this gyro's modes on this bench, its noise included: scouts step
+as the probe did, and a later sweep that misses them (a scout whose electrode moved them further
+than it reached) falls back first to a band at the probe's step, then to the locating sweep
+(:class:`~sysid_core.run.lean_protocol.LeanProtocol`).
 The probe's measured noise (:func:`bench_noise`) decides the first design
 (:meth:`~sysid_core.run.context.RunContext.design`): under :data:`QUIET_NOISE` of its response
 (a *quiet* bench), under the ``auto`` stiffness law, the first design is one-sided (``n + 1``
-biases), the designs after it two-sided, and scouts step as the probe did, with at least 6
-points (:data:`~sysid_core.measure.lean.QUIET_SCOUT_POINTS`); otherwise the first design is
-two-sided too.
+biases), the designs after it two-sided, and scouts hold at least 6 points
+(:data:`~sysid_core.measure.lean.QUIET_SCOUT_POINTS`); otherwise the first design is two-sided
+too and scouts hold at least 8.
 
 Measured (docs/studies/dwells.md): on random gyros of a good lab with 8 tones and 2 electrodes,
 keeping a noisy probe that shows both modes cuts the median from 37 to 30 dwells and from 199 to

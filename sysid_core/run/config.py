@@ -219,11 +219,10 @@ class ExperimentConfig(_Strict):
 
     ``probe`` (default ``"auto"``: on when the device states its dwell per acquisition, a
     bench with a clock; ``true``/``false`` force it): the run's first look at the band is a
-    probe of every fourth locating point (at least 16). On a quiet bench (the probe
-    shows both modes and its noise is under 2 % of its response) it stands as the locating
-    sweep, the first design is one-sided under the ``auto`` law, and scouts step as the probe
-    does, with at least 6 points instead of 8; on a noisy one the whole locating sweep and a
-    two-sided design follow (:mod:`sysid_core.measure.locating`). With a clock
+    probe of every fourth locating point (at least 16). A probe that shows both modes stands
+    as the locating sweep, and scouts step as it did; on a quiet bench (its noise under 2 % of
+    its response) the first design is one-sided under the ``auto`` law and scouts hold at least
+    6 points instead of 8 (:mod:`sysid_core.measure.locating`). With a clock
     (docs/studies/bench-time-lab.md) the cloverleaf reaches a true split of 1 mHz in a median of
     14.4 minutes with one tone instead of 30.0.
 

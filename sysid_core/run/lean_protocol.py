@@ -78,8 +78,8 @@ class LeanProtocol(Protocol):
         #: With ``probe``, the run's first look at the band is a probe (``measure.locating``);
         #: whether it found the bench quiet decides the first design and the scouts' floor.
         self.quiet, self.scout_plan = False, self.locate_plan
-        #: Whether the probe showed both modes: a band at its step shows this gyro's modes on
-        #: this bench, and is the first band a later sweep that misses them falls back to.
+        #: Whether the probe showed both modes: its step shows this gyro's modes on this bench,
+        #: so scouts step as it did and a sweep that misses them falls back first to its band.
         self.probe_stood = False
         #: Which electrodes are tuned: a pair, or every one (:mod:`sysid_core.run.electrodes`).
         self.electrodes = Electrodes(ctx, self.known, self._learn)
@@ -396,5 +396,5 @@ class LeanProtocol(Protocol):
         if looked:  # it decides the first design
             self.quiet = quiet
             self.probe_stood = probe is not None and len(self.known) == before + 1
-        if probe is not None and quiet:  # scouts too can locate modes with the probe's step
+        if looked and self.probe_stood:  # its step located this gyro's modes on this bench
             self.scout_plan = probing

@@ -200,9 +200,9 @@ def test_a_probe_on_a_noisy_bench_stands_as_the_locating_sweep_but_the_design_is
     tmp_path: Path,
 ) -> None:
     """At 50 dB the probe's noise is over QUIET_NOISE, yet it shows both modes: it locates
-    them (no locating band follows it), and the first design steps each electrode both ways.
-    (Here the scouts of both electrodes then miss a mode at their windows' edge and are each
-    followed by the locating band at their bias, as they may be after a locating sweep.)"""
+    them (no locating band follows it), the scouts step as it did, and the first design steps
+    each electrode both ways. (Scouts at the locating step, a quarter of the probe's, held 13
+    and 22 points here.)"""
     dev = Recording(seed=1, noise=3e-3)
     lines: list[str] = []
     run = TuningRun(
@@ -221,6 +221,10 @@ def test_a_probe_on_a_noisy_bench_stands_as_the_locating_sweep_but_the_design_is
     names = set(files(tmp_path, "iter01"))
     assert {"exp0.nc", "exp3.nc", "exp4.nc"} <= names  # two-sided: 2 n + 1 biases
     assert "exp0-locate.nc" not in names  # no locating band at the probe's bias
+    # the scouts (+1 V on each electrode) at the probe's step: its floor of 8 points, both found
+    scouts = [n for bias, n in dev.calls[1:5] if max(bias) > 0]
+    assert scouts == [lean.SCOUT_MIN_POINTS] * 2, dev.calls
+    assert not [f for f in names if f.startswith(("exp1-", "exp3-"))], names
     # the probe is fitted with every other sweep of the iteration
     sweeps = len([f for f in names if f.startswith("exp")])
     assert any(line.endswith(f"model to {sweeps} sweeps") for line in lines), lines
