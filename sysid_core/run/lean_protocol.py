@@ -393,8 +393,8 @@ class LeanProtocol(Protocol):
 
         before = len(self.known)
         quiet = locate_modes(sweep, ctx.say, path, tries, plan, denser.size, probe, looked)
-        if looked:  # it decides the first design
+        if looked:  # it decides the first design, the scouts' floor and their step
             self.quiet = quiet
             self.probe_stood = probe is not None and len(self.known) == before + 1
-        if looked and self.probe_stood:  # its step located this gyro's modes on this bench
-            self.scout_plan = probing
+            if self.probe_stood:  # its step located this gyro's modes on this bench
+                self.scout_plan = probing
