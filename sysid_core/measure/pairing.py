@@ -49,7 +49,7 @@ from sysid_core.model.fitted import FittedModel
 from sysid_core.model.modal import degenerate_w
 from sysid_core.tuning.criteria import BiasSpace
 
-__all__ = ["Pair", "choose_pair", "least_voltage_pair", "pair_of_stepped"]
+__all__ = ["Pair", "choose_pair", "least_voltage_pair", "pair_bias", "pair_of_stepped"]
 
 
 @dataclass(frozen=True)
@@ -124,25 +124,54 @@ def least_voltage_pair(
         return None
     bias = np.asarray(bias, dtype=float)
     w = squared_potentials(structure_potential, bias)
-    low, high = limits
     best: Pair | None = None
     for a, b in itertools.combinations(range(len(names)), 2):
         if frozenset((names[a], names[b])) in exclude:
             continue
-        base = np.asarray(model.K0, dtype=float) + sum(
-            w[p] * kp[p] for p in range(len(names)) if p not in (a, b)
-        )
-        try:
-            wa, wb, _ = degenerate_w(base, kp[a], kp[b], np.asarray(model.M, dtype=float))
-        except np.linalg.LinAlgError:
-            continue  # the pair's stiffnesses and the mass are linearly dependent
-        v = [_root(wp, bias[p], structure_potential, low, high) for wp, p in ((wa, a), (wb, b))]
-        if v[0] is None or v[1] is None:
-            continue
-        step = float(max(abs(v[0] - bias[a]), abs(v[1] - bias[b])))
-        if best is None or step < best.step_v:
-            best = Pair((names[a], names[b]), np.array(v, dtype=float), step)
+        pair = _pair(model, (a, b), bias, w, structure_potential, limits)
+        if pair is not None and (best is None or pair.step_v < best.step_v):
+            best = pair
     return best
+
+
+def pair_bias(
+    model: FittedModel, bias: np.ndarray, limits: tuple[float, float], structure_potential: float
+) -> np.ndarray | None:
+    """The bias of a two-electrode ``model`` that its law makes degenerate, or None.
+
+    Of each electrode's two roots, the one nearer ``bias`` inside ``limits`` (as a pair's).
+    None when the model does not have two electrodes or no such bias lies inside the limits.
+    """
+    if len(model.electrodes) != 2 or len(model.Kp) != 2:
+        return None
+    w = squared_potentials(structure_potential, np.asarray(bias, dtype=float))
+    pair = _pair(model, (0, 1), np.asarray(bias, dtype=float), w, structure_potential, limits)
+    return None if pair is None else pair.bias
+
+
+def _pair(
+    model: FittedModel,
+    ab: tuple[int, int],
+    bias: np.ndarray,
+    w: np.ndarray,
+    structure_potential: float,
+    limits: tuple[float, float],
+) -> Pair | None:
+    """Electrodes ``ab`` of ``model`` with their degenerate bias inside ``limits``, or None."""
+    names, kp = [str(e) for e in model.electrodes], [np.asarray(k, float) for k in model.Kp]
+    (a, b), (low, high) = ab, limits
+    base = np.asarray(model.K0, dtype=float) + sum(
+        w[p] * kp[p] for p in range(len(names)) if p not in ab
+    )
+    try:
+        wa, wb, _ = degenerate_w(base, kp[a], kp[b], np.asarray(model.M, dtype=float))
+    except np.linalg.LinAlgError:
+        return None  # the pair's stiffnesses and the mass are linearly dependent
+    v = [_root(wp, bias[p], structure_potential, low, high) for wp, p in ((wa, a), (wb, b))]
+    if v[0] is None or v[1] is None:
+        return None
+    step = float(max(abs(v[0] - bias[a]), abs(v[1] - bias[b])))
+    return Pair((names[a], names[b]), np.array(v, dtype=float), step)
 
 
 def pair_of_stepped(

@@ -25,6 +25,7 @@ __all__ = [
     "design_experiments",
     "fewest_points",
     "grid",
+    "second_side",
 ]
 
 #: Fewest points in any sweep: a single-bias fit has 25 unknowns (8 real equations per point),
@@ -77,6 +78,35 @@ def design_experiments(
             b[p] += off
             design.append(b)
     return np.array(design)
+
+
+def second_side(
+    design: np.ndarray,
+    tuned_index: Sequence[int],
+    answer: np.ndarray | None,
+    step: float,
+    region: np.ndarray | None = None,
+) -> np.ndarray:
+    """A two-sided first design whose second step of each electrode goes to ``answer``.
+
+    ``design``: :func:`design_experiments`' two-sided rows (the start, then each electrode's two
+    steps); ``answer``: the tuned electrodes' bias that the first steps' law makes degenerate,
+    ``region`` its interval per electrode (rows ``[low, high]``; default: the answer alone). An
+    electrode whose whole interval lies beyond its first design's span (more than ``step`` from
+    the start, on one side) takes its second step to the answer, so that the law fitted on the
+    design spans the voltage the answer needs; the others keep theirs. Unchanged without an
+    answer.
+    """
+    out = np.array(design, dtype=float)
+    if answer is None or len(out) != 2 * len(tuned_index) + 1:
+        return out
+    box = np.column_stack([answer, answer]) if region is None else np.asarray(region, float)
+    start, reach = out[0], step * (1 + 1e-9)
+    for k, p in enumerate(tuned_index):
+        low, high = float(box[k, 0]) - float(start[p]), float(box[k, 1]) - float(start[p])
+        if low > reach or high < -reach:
+            out[2 * k + 2, p] = float(answer[k])
+    return out
 
 
 def n_points(lo: float, hi: float, step: float) -> int:

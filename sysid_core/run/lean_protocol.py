@@ -44,6 +44,7 @@ from sysid_core.measure.verification import Band, Verification, modes_at
 from sysid_core.model.fitted import FittedModel
 from sysid_core.run.context import RunContext
 from sysid_core.run.electrodes import Electrodes
+from sysid_core.run.first_design import toward_answer
 from sysid_core.run.protocol_base import Found, Prefit, Protocol
 from sysid_core.tuning.criteria import TuningResult
 
@@ -145,8 +146,9 @@ class LeanProtocol(Protocol):
         if it > 1 and self.known.meets_rank(bias, radius, law, apart):
             return radius
         design = ctx.design(bias, scale, quiet=self.quiet and scale == 1)
-        todo: Sequence[int] = range(len(design))  # the first design whole; later, what lacks
-        if it > 1:
+        if it == 1:  # the whole design, its second steps toward the first ones' answer
+            design, todo = toward_answer(ctx, self.known, self._learn, bias, design, folder)
+        else:  # what the sweeps near the bias lack
             todo = self.known.completing(bias, radius, law, design, ctx.space.index, apart)
         todo = [j for j in todo if not self.known.has(design[j])]
         if it > 1 and chord and (wide := self._reach(it, bias, apart, todo)):
@@ -255,11 +257,9 @@ class LeanProtocol(Protocol):
         if ver.verified and ver.frequencies_hz is not None:
             self.last_verified = (bias.copy(), np.asarray(ver.frequencies_hz, dtype=float))
             self.splits.append(float(ver.split_hz or 0.0))
-        if self.previous is not None:
-            why = self.previous.judge(ver, self.ctx.left())
-            if why is not None:
-                self.ctx.say(f"{why}; measuring the local design from now on")
-                self.previous, self.local = None, True
+        if self.previous is not None and (why := self.previous.judge(ver, self.ctx.left())):
+            self.ctx.say(f"{why}; measuring the local design from now on")
+            self.previous, self.local = None, True
 
     def _from_previous(
         self, it: int, bias: np.ndarray, folder: Path
@@ -396,5 +396,4 @@ class LeanProtocol(Protocol):
         if looked:  # it decides the first design, the scouts' floor and their step
             self.quiet = quiet
             self.probe_stood = probe is not None and len(self.known) == before + 1
-            if self.probe_stood:  # its step located this gyro's modes on this bench
-                self.scout_plan = probing
+            self.scout_plan = probing if self.probe_stood else self.scout_plan  # its step
