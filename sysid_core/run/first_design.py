@@ -14,10 +14,10 @@ sweeps. Where the answer lies inside the span, or no answer is found, the step d
 
 The first steps are measured first, before any second one. A pair chosen among more electrodes
 has measured them already, as its scouts; a run given two electrodes would measure them in
-another order than eq. (18)'s, and on a run that tracks a drift (a bench with a clock) it does
-not: there each electrode's two steps stay back to back, the drift between them small. On four
-two-electrode gyros of a bench written outside the toolkit, where only the order changed, the
-runs took 13-29 dwells longer (``docs/studies/first-design.md``).
+another order than eq. (18)'s, and on a bench with a clock (time stamps: a gyro that drifts
+while it is measured) it does not: each electrode's two steps stay back to back, the drift
+between them small. On four two-electrode gyros of a bench written outside the toolkit, where
+only the order changed, the runs took 13-29 dwells longer (``docs/studies/first-design.md``).
 """
 
 from __future__ import annotations
@@ -75,7 +75,7 @@ def toward_answer(
     if len(sp.index) != 2 or not two_sided or ctx.config.tuning.criterion != "degenerate":
         return design, todo
     first = [j for j in todo if j % 2]  # the first steps (rows 1 and 3) not measured as scouts
-    if first and ctx.tracking:  # a drifting bench: each electrode's two steps back to back
+    if first and ctx.bench.clock_span_s is not None:  # time passes: its steps back to back
         return design, todo
     for j in first:
         learn(design[j], folder / f"exp{j}.nc")
