@@ -4,26 +4,22 @@ A two-sided first design (eq. (18)) steps each tuned electrode up and then down 
 ``[experiment] bias_step`` from the start, and the first answer is the law fitted on those
 sweeps carried to wherever the answer lies, often several steps away, where a law chosen on a
 volt's span may miss by hundreds of millihertz. The law is a function of ``w = (v - v_gyro)²``
-(:mod:`sysid_core.model.structures`); the start and the first steps (``n + 1`` sweeps) already
-meet the linear law's rank condition (6) and place the answer. So for a degenerate pair the run
-measures the first steps first, places the degenerate bias by their linear law
-(:func:`~sysid_core.measure.pairing.pair_bias`), and takes each electrode's second step there
-where it lies beyond the design's span (:func:`~sysid_core.measure.sweeps.second_side`): the
-law fitted on the whole design then spans the ``w`` the answer needs, with the same number of
-sweeps. Where the answer lies inside the span, or no answer is found, the step down stays.
+(:mod:`sysid_core.model.structures`). A pair chosen among more electrodes
+(:class:`~sysid_core.run.electrodes.Electrodes`) has measured the start and each electrode's
+first step already, as its scouts: ``n + 1`` sweeps that meet the linear law's rank condition
+(6) and place the answer. So its second steps go there: the run places the degenerate bias by
+their linear law (:func:`~sysid_core.measure.pairing.pair_bias`) with its 95 % interval, and an
+electrode whose whole interval lies beyond the design's span takes its second step at the answer
+(:func:`~sysid_core.measure.sweeps.second_side`): the law fitted on the whole design then spans
+the ``w`` the answer needs, with the same number of sweeps. Elsewhere the step down stays.
 
-The first steps are measured first, before any second one. A pair chosen among more electrodes
-has measured them already, as its scouts; a run given two electrodes would measure them in
-another order than eq. (18)'s, and on a bench with a clock (time stamps: a gyro that drifts
-while it is measured) it does not: each electrode's two steps stay back to back, the drift
-between them small. On four two-electrode gyros of a bench written outside the toolkit, where
-only the order changed, the runs took 13-29 dwells longer (``docs/studies/first-design.md``).
+A run given two electrodes keeps eq. (18)'s order (each electrode up, then down): measuring
+both first steps first parts an electrode's two steps in time, and on a bench written outside
+the toolkit the four two-electrode runs whose only change was that order all took longer, by
+13-29 dwells, the drift between the steps in the law (``docs/studies/first-design.md``).
 """
 
 from __future__ import annotations
-
-from collections.abc import Callable
-from pathlib import Path
 
 import numpy as np
 
@@ -41,29 +37,20 @@ __all__ = ["toward_answer"]
 
 
 def toward_answer(
-    ctx: RunContext,
-    known: Knowledge,
-    learn: Callable[[np.ndarray, Path], None],
-    bias: np.ndarray,
-    design: np.ndarray,
-    folder: Path,
+    ctx: RunContext, known: Knowledge, bias: np.ndarray, design: np.ndarray
 ) -> tuple[np.ndarray, list[int]]:
-    """Measure the first steps of ``design``, then place its second ones (see the module).
+    """The first design with its second steps placed (see the module), and its rows to measure.
 
     Parameters
     ----------
     ctx : RunContext
         The run (its tuned electrodes, limits, criterion, fitter and step).
     known : Knowledge
-        The run's sweeps; the start's is among them.
-    learn : callable
-        Measures an identification experiment: ``learn(bias, path)``.
+        The run's sweeps: the start's and, for a pair, its scouts.
     bias : ndarray
         The start (every electrode).
     design : ndarray
         The first design's rows (:meth:`RunContext.design`).
-    folder : Path
-        Where the sweeps go (``exp<row>.nc``).
 
     Returns
     -------
@@ -74,11 +61,8 @@ def toward_answer(
     two_sided = len(design) == 2 * len(sp.index) + 1
     if len(sp.index) != 2 or not two_sided or ctx.config.tuning.criterion != "degenerate":
         return design, todo
-    first = [j for j in todo if j % 2]  # the first steps (rows 1 and 3) not measured as scouts
-    if first and ctx.bench.clock_span_s is not None:  # time passes: its steps back to back
+    if any(j % 2 for j in todo):  # first steps not measured as scouts: eq. (18)'s order
         return design, todo
-    for j in first:
-        learn(design[j], folder / f"exp{j}.nc")
     s, answer, region = ctx.fitter.structure, None, None
     try:
         model = ctx.fitter.fit(known.union(), type(s)(s.order, s.bias_terms, "linear"))[0]

@@ -147,7 +147,7 @@ class LeanProtocol(Protocol):
             return radius
         design = ctx.design(bias, scale, quiet=self.quiet and scale == 1)
         if it == 1:  # the whole design, its second steps toward the first ones' answer
-            design, todo = toward_answer(ctx, self.known, self._learn, bias, design, folder)
+            design, todo = toward_answer(ctx, self.known, bias, design)
         else:  # what the sweeps near the bias lack
             todo = self.known.completing(bias, radius, law, design, ctx.space.index, apart)
         todo = [j for j in todo if not self.known.has(design[j])]

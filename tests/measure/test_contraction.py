@@ -175,17 +175,18 @@ def test_sweeps_an_hour_old_are_fitted_while_the_split_falls(tmp_path: Path) -> 
 def test_a_fast_fall_after_a_local_design_verifies_the_answer_of_the_sweeps_it_has(
     tmp_path: Path,
 ) -> None:
-    """Random gyro 940 (8 tones, a good lab's clock, first design ±1 V, five electrodes): the pair
-    chosen first, B1 and B3, cannot reach degenerate modes (233.6 mHz at best), so the run
-    chooses B1 and B5 and iteration 2 measures their local design where the first was; its
-    answer, 3.9 V away, takes the split from 8.28 Hz to 786 mHz. A new local design there would
-    be four more sweeps; at the rate its splits fall the verifications are expected to cost
-    less. The run fits the nearest sweeps that meet the rank condition instead, at iterations 3,
-    4 and 5 (786 -> 27.1 -> 12.1 -> 0.44 mHz), and converges (0.47 mHz true): no design after
-    the second iteration. (Gyros 796, 819 and 834 showed it before the pair was chosen among the
-    first three electrodes stepped, before the probe took every fourth locating point, and
-    before scouts stepped as a noisy bench's probe did.)"""
-    device, options = good_lab(940, 0.2, tones=8)
+    """Random gyro 884 (8 tones, a good lab's clock, first design ±1 V, seven electrodes): the
+    pair chosen first, B1 and B3, cannot reach degenerate modes (2.15 Hz at best by its model),
+    so the run chooses another pair, B1 and B2, and iteration 2 measures their local design
+    where the first was; its answer, 4.8 V away, takes the split from 17.5 Hz to 147 mHz. A new
+    local design there would be four more sweeps; at the rate its splits fall the verifications
+    are expected to cost less. The run fits the nearest sweeps that meet the rank condition
+    instead, at iterations 3 and 4 (147 -> 37.4 -> 0.28 mHz), and converges (0.30 mHz true): no
+    design after the second iteration. (Gyros 796, 819, 834 and 940 showed it before the pair was
+    chosen among the first three electrodes stepped, before the probe took every fourth locating
+    point, before scouts stepped as a noisy bench's probe did, and before a pair's second steps
+    went to its scouts' answer.)"""
+    device, options = good_lab(884, 0.2, tones=8)
     config = degenerate_config(device, options, 300, 0.001, experiment={"bias_step": 1.0})
     config["tuning"] |= {"electrodes": list(device.electrodes[:6]), "pair": True}
     lines: list[str] = []

@@ -221,10 +221,9 @@ def test_a_probe_on_a_noisy_bench_stands_as_the_locating_sweep_but_the_design_is
     names = set(files(tmp_path, "iter01"))
     assert {"exp0.nc", "exp3.nc", "exp4.nc"} <= names  # two-sided: 2 n + 1 biases
     assert "exp0-locate.nc" not in names  # no locating band at the probe's bias
-    # the scouts (+1 V on each electrode, first) at the probe's step: its floor of 8 points,
-    # both found
-    assert [bias[:2] for bias, _ in dev.calls[1:3]] == [(1.0, 0.0), (0.0, 1.0)], dev.calls
-    assert [n for _, n in dev.calls[1:3]] == [lean.SCOUT_MIN_POINTS] * 2, dev.calls
+    # the scouts (+1 V on each electrode) at the probe's step: its floor of 8 points, both found
+    scouts = [n for bias, n in dev.calls[1:5] if max(bias) > 0]
+    assert scouts == [lean.SCOUT_MIN_POINTS] * 2, dev.calls
     assert not [f for f in names if f.startswith("exp") and "-" in f], names  # no fallbacks
     # the probe is fitted with every other sweep of the iteration
     sweeps = len([f for f in names if f.startswith("exp")])
