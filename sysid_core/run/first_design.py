@@ -70,8 +70,19 @@ def toward_answer(
         region = None if answer is None else _region(model, answer, bias, sp)
     except SysidError:  # no law of the first steps: the design as it was
         pass
-    design = second_side(design, sp.index, answer, ctx.step(1), region)
-    return design, [j for j in todo if not known.has(design[j])]
+    placed = second_side(design, sp.index, answer, ctx.step(1), region)
+    moved = [
+        k
+        for k in range(len(sp.index))
+        if placed[2 * k + 2, sp.index[k]] != design[2 * k + 2, sp.index[k]]
+    ]
+    if moved and answer is not None:
+        at = ", ".join(f"{sp.tuned[k]} at {answer[k]:.3f} V" for k in moved)
+        ctx.say(
+            f"iteration 1: second design step{'s' if len(moved) > 1 else ''} at the scouts' "
+            f"answer ({at}): its 95 % interval lies beyond the {ctx.step(1):g} V step"
+        )
+    return placed, [j for j in todo if not known.has(placed[j])]
 
 
 def _region(

@@ -96,9 +96,12 @@ def test_a_pairs_second_steps_go_to_the_answer_of_its_scouts(tmp_path: Path) -> 
     first answer's true split over five noise draws: 0.16-1.64 mHz (0.91-2.96 mHz with the steps
     down; four runs of five then took a second iteration, one of five now)."""
     job = {**MAIN_JOB, "tuning": {**MAIN_JOB["tuning"], "electrodes": ["B1", "B2", "B3"]}}
-    dev = Recording(seed=1)
-    summary = TuningRun(parse_config(job), tmp_path, device=dev, plots=False).run()
+    dev, lines = Recording(seed=1), []
+    run = TuningRun(parse_config(job), tmp_path, device=dev, plots=False, progress=lines.append)
+    summary = run.run()
     bias = [b for b, _ in dev.calls]
+    said = [line for line in lines if "second design steps at the scouts' answer" in line]
+    assert said and "B2 at 4.3" in said[0] and "B3 at -1.7" in said[0], lines
     assert bias[1:4] == [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)]  # the scouts
     assert summary.tuned == ["B2", "B3"]
     exact = [4.351, -1.751]
