@@ -70,6 +70,7 @@ def toward_answer(
         region = None if answer is None else _region(model, answer, bias, sp)
     except SysidError:  # no law of the first steps: the design as it was
         pass
+    answer = None if region is None else answer  # no interval: not known to lie beyond
     placed = second_side(design, sp.index, answer, ctx.step(1), region)
     moved = [
         k
@@ -90,7 +91,7 @@ def _region(
 ) -> np.ndarray | None:
     """The 95 % interval of each electrode of ``answer`` by ``model``'s covariance, or None.
 
-    None where the fit states no covariance: then the answer alone decides.
+    None where the fit states no covariance (a ``minimax`` fit): the second steps then stay.
     """
     pair = BiasSpace(
         list(sp.tuned), list(sp.tuned), bias[sp.index], sp.limits, sp.structure_potential
