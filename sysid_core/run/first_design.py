@@ -38,31 +38,14 @@ __all__ = ["toward_answer"]
 
 def toward_answer(
     ctx: RunContext, known: Knowledge, bias: np.ndarray, design: np.ndarray
-) -> tuple[np.ndarray, list[int]]:
-    """The first design with its second steps placed (see the module), and its rows to measure.
-
-    Parameters
-    ----------
-    ctx : RunContext
-        The run (its tuned electrodes, limits, criterion, fitter and step).
-    known : Knowledge
-        The run's sweeps: the start's and, for a pair, its scouts.
-    bias : ndarray
-        The start (every electrode).
-    design : ndarray
-        The first design's rows (:meth:`RunContext.design`).
-
-    Returns
-    -------
-    tuple
-        The design, its second steps placed where they go, and its rows not measured yet.
-    """
-    sp, todo = ctx.space, [j for j in range(len(design)) if not known.has(design[j])]
+) -> np.ndarray:
+    """The first design with its second steps placed (see the module)."""
+    sp = ctx.space
     two_sided = len(design) == 2 * len(sp.index) + 1
     if len(sp.index) != 2 or not two_sided or ctx.config.tuning.criterion != "degenerate":
-        return design, todo
-    if any(j % 2 for j in todo):  # first steps not measured as scouts: eq. (18)'s order
-        return design, todo
+        return design
+    if not all(known.has(row) for row in design[1::2]):  # no scouts: eq. (18)'s order
+        return design
     s, answer, region = ctx.fitter.structure, None, None
     try:
         model = ctx.fitter.fit(known.union(), type(s)(s.order, s.bias_terms, "linear"))[0]
@@ -83,7 +66,7 @@ def toward_answer(
             f"iteration 1: second design step{'s' if len(moved) > 1 else ''} at the scouts' "
             f"answer ({at}): its 95 % interval lies beyond the {ctx.step(1):g} V step"
         )
-    return placed, [j for j in todo if not known.has(placed[j])]
+    return placed
 
 
 def _region(

@@ -146,9 +146,10 @@ class LeanProtocol(Protocol):
         if it > 1 and self.known.meets_rank(bias, radius, law, apart):
             return radius
         design = ctx.design(bias, scale, quiet=self.quiet and scale == 1)
-        if it == 1:  # the whole design, its second steps toward the first ones' answer
-            design, todo = toward_answer(ctx, self.known, bias, design)
-        else:  # what the sweeps near the bias lack
+        todo: Sequence[int] = range(len(design))  # the first design whole; later, what lacks
+        if it == 1:  # its second steps toward the answer of the first ones
+            design = toward_answer(ctx, self.known, bias, design)
+        else:
             todo = self.known.completing(bias, radius, law, design, ctx.space.index, apart)
         todo = [j for j in todo if not self.known.has(design[j])]
         if it > 1 and chord and (wide := self._reach(it, bias, apart, todo)):
