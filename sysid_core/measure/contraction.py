@@ -28,6 +28,13 @@ the drift included: sweeps that the drift has made too old for the answers show 
 does not fall, and the design follows. (A rule that sent every tracked run to the local design once
 its sweeps spanned an hour was measured and dropped: docs/studies/design-pays.md, "Sweeps an hour
 old".)
+
+The rate is a ratio of true splits, and a window measures its split with noise. Where the latest
+window's 95 % interval reaches down to the acceptance, two splits give no rate: a split "risen"
+from 0.93 to 1.13 mHz with intervals of 0-3.8 and 0-2.7 mHz may be the same split twice, and a
+local design measures the law again where what is missing is a window that resolves the split
+(the next verification, which the windows' forecast pools with the earlier ones). Told that
+interval's lower end (``low_hz``), :func:`too_slow` then declines the design.
 """
 
 from __future__ import annotations
@@ -89,6 +96,7 @@ def too_slow(
     left: int,
     acceptance_hz: float,
     costs: Costs | None = None,
+    low_hz: float | None = None,
 ) -> str | None:
     """Why verifying the next answers alone is the slower way to the acceptance, or None.
 
@@ -106,6 +114,10 @@ def too_slow(
     costs : Costs, optional
         A verification's and the local design's bench time; without them, only the rate and
         the iterations left decide.
+    low_hz : float, optional
+        The lower end of the latest split's 95 % interval (its window's fit). At or under the
+        acceptance the window does not tell its split from one that met it: the rate is the
+        windows' noise, not the answers' (module docstring), and None is returned.
 
     Returns
     -------
@@ -115,6 +127,8 @@ def too_slow(
         the verifications the rate needs (module docstring).
     """
     if last_hz is None or left < 1 or last_hz <= 0 or split_hz <= acceptance_hz:
+        return None
+    if low_hz is not None and low_hz <= acceptance_hz:  # unresolved: no rate to read
         return None
     fell = f"the verified split fell from {last_hz * 1e3:.3g} to {split_hz * 1e3:.3g} mHz"
     needed = verifications_needed(last_hz, split_hz, acceptance_hz)

@@ -46,6 +46,7 @@ from sysid_core.run.context import RunContext
 from sysid_core.run.electrodes import Electrodes
 from sysid_core.run.first_design import toward_answer
 from sysid_core.run.protocol_base import Found, Prefit, Protocol
+from sysid_core.tuning.confidence import split_interval
 from sysid_core.tuning.criteria import TuningResult
 
 __all__ = ["LeanProtocol"]
@@ -74,18 +75,16 @@ class LeanProtocol(Protocol):
         self.local, self.moved = False, False
         self.last_verified: tuple[np.ndarray, np.ndarray] | None = None
         self.splits: list[float] = []  # every verified split, in order
-        #: The points of each sweep of the latest verification (what one costs).
-        self.verify_points: list[int] = []
+        self.low: float | None = None  # the latest one's 95 % lower end (contraction.too_slow)
+        self.verify_points: list[int] = []  # each sweep's points in the latest verification
         #: With ``probe``, the run's first look at the band is a probe (``measure.locating``);
         #: whether it found the bench quiet decides the first design and the scouts' floor.
         self.quiet, self.scout_plan = False, self.locate_plan
-        #: Whether the probe showed both modes: its step shows this gyro's modes on this bench,
-        #: so scouts step as it did and a sweep that misses them falls back first to its band.
+        #: The probe showed both modes: scouts step as it did, a sweep that misses them tries it.
         self.probe_stood = False
         #: Which electrodes are tuned: a pair, or every one (:mod:`sysid_core.run.electrodes`).
         self.electrodes = Electrodes(ctx, self.known, self._learn)
-        #: The first model found the goal out of reach and moved the run: fit every sweep next.
-        self.far_first = False
+        self.far_first = False  # a first answer out of reach moved the run: fit every sweep
 
     @property
     def offered(self) -> list[str] | None:  # type: ignore[override]
@@ -258,6 +257,7 @@ class LeanProtocol(Protocol):
         if ver.verified and ver.frequencies_hz is not None:
             self.last_verified = (bias.copy(), np.asarray(ver.frequencies_hz, dtype=float))
             self.splits.append(float(ver.split_hz or 0.0))
+            self.low = None if (ci := split_interval(ver.model)) is None else float(ci[0])
         if self.previous is not None and (why := self.previous.judge(ver, self.ctx.left())):
             self.ctx.say(f"{why}; measuring the local design from now on")
             self.previous, self.local = None, True
@@ -313,7 +313,7 @@ class LeanProtocol(Protocol):
         except SysidError:  # no local design there: the rate alone decides
             costs = None
         split, union, tracking = float(vf[1] - vf[0]), self.known.union(), ctx.tracking
-        why = too_slow(last, split, ctx.left(), ctx.config.tuning.acceptance_hz, costs)
+        why = too_slow(last, split, ctx.left(), ctx.config.tuning.acceptance_hz, costs, self.low)
         if why:
             return why, None
         model, notes = ctx.fitter.fit(union)
@@ -339,13 +339,13 @@ class LeanProtocol(Protocol):
         if len(splits) < 2 or not todo or costs is None or not self.ctx.tracking:
             return 0.0
         ctx, (last, split) = self.ctx, splits[-2:]
-        if too_slow(last, split, ctx.left(), ctx.config.tuning.acceptance_hz, costs) is not None:
+        if too_slow(last, split, ctx.left(), ctx.config.tuning.acceptance_hz, costs, self.low):
             return 0.0
         if reach := self.known.rank_reach(bias, ctx.config.model.stiffness, apart) or 0.0:
             ctx.say(
-                f"iteration {it}: the split fell from {last * 1e3:.3g} to "
-                f"{split * 1e3:.3g} mHz; fitting the sweeps within {reach:.3g} V of the bias, "
-                f"not the {len(todo)} of the local design they lack"
+                f"iteration {it}: the split {'fell' if split < last else 'went'} from "
+                f"{last * 1e3:.3g} to {split * 1e3:.3g} mHz; fitting the sweeps within "
+                f"{reach:.3g} V of the bias, not the {len(todo)} of the local design they lack"
             )
         return reach
 

@@ -50,6 +50,28 @@ def test_the_rate_decides() -> None:
     assert too_slow(0.010, 0.020, 3, 0.002) is not None
 
 
+def test_a_window_that_does_not_resolve_its_split_from_the_acceptance_gives_no_rate() -> None:
+    # 0.93 -> 1.13 mHz, acceptance 1 mHz: "did not fall", unless the latest window's 95 %
+    # interval (0-2.65 mHz) reaches down to the acceptance: then the rate is the noise's
+    assert too_slow(0.00093, 0.00113, 5, 0.001) is not None
+    assert too_slow(0.00093, 0.00113, 5, 0.001, low_hz=0.0) is None
+    assert too_slow(0.00093, 0.00113, 5, 0.001, low_hz=0.001) is None  # reaches it exactly
+    # a window resolved over the acceptance reads the rate as before
+    assert too_slow(0.010, 0.020, 3, 0.002, low_hz=0.015) is not None
+
+
+@given(last=splits, split=splits, low=st.floats(0.0, 10.0), left=st.integers(1, 6))
+def test_a_resolved_window_decides_as_without_its_interval(
+    last: float, split: float, low: float, left: int
+) -> None:
+    acceptance, costs = 0.002, Costs(10.0, 40.0)
+    told = too_slow(last, split, left, acceptance, costs, low_hz=low)
+    if low > acceptance:
+        assert told == too_slow(last, split, left, acceptance, costs)
+    else:
+        assert told is None
+
+
 def test_verifications_needed_at_the_rate_seen() -> None:
     assert verifications_needed(2.643, 0.0015, 0.002) == 0  # already under
     # 249 mHz at 249/2643 per verification: 23.5, 2.2, then 0.21 mHz
@@ -197,3 +219,34 @@ def test_a_fast_fall_after_a_local_design_verifies_the_answer_of_the_sweeps_it_h
     assert not list((tmp_path / "run").glob("iter0[3-9]/exp*.nc")), text
     f = device.true_modal_frequencies_hz(result.bias)
     assert result.converged and f[1] - f[0] <= 2 * 0.001
+
+
+def test_a_split_risen_inside_its_windows_noise_is_verified_again_without_a_design(
+    tmp_path: Path,
+) -> None:
+    """Random gyro 943 (22.9 kHz, a pair of its six electrodes tuned, 60 dB, one tone, a good
+    lab's clock, acceptance 2 mHz): its windows measure the split to ±2-3 mHz at 95 %. Read as
+    a rate, a split "risen" from 0.71 to 2.08 mHz (interval 0.45-3.91 mHz) asked for the local
+    design: four sweeps, and 234 dwells to converge. Unresolved from the acceptance, the rise
+    gives no rate; the run verifies the next answers and converges after 174 dwells."""
+    drift = {"temperature_ramp_k_per_h": 0.2, "temperature_walk_k_per_sqrt_h": 0.05}
+    options = {"seed": 943, "noise": 1e-3}
+    bench = {"clock": True, "seed": 943, **drift}
+    device = get_registry().device("random-gyro", **options, bench=bench)
+    config = degenerate_config(device, options, 0)
+    config["tuning"] |= {"electrodes": list(device.electrodes), "max_iterations": None}
+    lines: list[str] = []
+    result = tune(config, tmp_path / "run", plots=False, device=device, progress=lines.append)
+    history = [h for h in result.history if h.measured_split_ci_hz is not None]
+    rises = [
+        (a, b)
+        for a, b in zip(history, history[1:])
+        if b.measured_split_hz > max(a.measured_split_hz, 0.002)
+        and b.measured_split_ci_hz[0] <= 0.002  # type: ignore[index]
+    ]
+    assert rises, "\n".join(lines)  # the case: a rise the window does not resolve
+    assert not any("did not fall" in line for line in lines), "\n".join(lines)
+    later = [d for d in sorted((tmp_path / "run").glob("iter*")) if d.name != "iter01"]
+    assert later and not any(list(d.glob("exp*.nc")) for d in later)  # windows only
+    f = device.true_modal_frequencies_hz(result.bias)
+    assert result.converged and f[1] - f[0] <= 0.002
