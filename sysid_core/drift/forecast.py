@@ -113,13 +113,16 @@ def pooled_by_bias(sweeps: Sequence[xr.Dataset], variances: Sequence[float]) -> 
     weights each window by its own variance leans on the low readings. Windows measured at one
     bias (one DAC code verified again) measure one split with one design: their noise is one,
     and its estimate the median of theirs (robust to the few windows whose fit went astray).
-    docs/studies/repeated-looks.md measures both on a run's windows.
+    docs/studies/repeated-looks.md measures both on a run's windows. A window averaged over
+    ``n`` passes (its ``passes`` attribute, :mod:`sysid_core.measure.passes`) holds that noise
+    over ``n``: the median is taken per pass.
     """
     keys = [bias_key(sweep) for sweep in sweeps]
+    passes = [max(int(sweep.attrs.get("passes", 1)), 1) for sweep in sweeps]
     groups: dict[tuple[float, ...], list[float]] = {}
-    for key, variance in zip(keys, variances, strict=True):
-        groups.setdefault(key, []).append(float(variance))
-    return [float(np.median(groups[key])) for key in keys]
+    for key, variance, n in zip(keys, variances, passes, strict=True):
+        groups.setdefault(key, []).append(float(variance) * n)
+    return [float(np.median(groups[key])) / n for key, n in zip(keys, passes, strict=True)]
 
 
 def with_split_rate(moved: FittedModel, found: SplitForecast, span_s: float) -> FittedModel:

@@ -31,7 +31,7 @@ old".)
 
 The rate is a ratio of true splits, and a window measures its split with noise. Where the latest
 window's 95 % interval reaches down to the acceptance, two splits give no rate: a split "risen"
-from 0.93 to 1.13 mHz with intervals of 0-3.8 and 0-2.7 mHz may be the same split twice, and a
+from 0.93 to 1.13 mHz with intervals of 0-3.8 and 0.2-2.1 mHz may be the same split twice, and a
 local design measures the law again where what is missing is a window that resolves the split
 (the next verification, which the windows' forecast pools with the earlier ones). Told that
 interval's lower end (``low_hz``), :func:`too_slow` then declines the design.

@@ -28,6 +28,13 @@ def test_windows_at_one_bias_take_the_median_of_their_variances() -> None:
     assert pooled_by_bias(sweeps, [1.0, 4.0, 2.0, 9.0]) == [4.0, 4.0, 2.0, 4.0]
 
 
+def test_a_window_averaged_over_passes_shares_the_noise_per_pass() -> None:
+    averaged = xr.Dataset(attrs={"requested_bias": [1.0, 2.0], "passes": 4})
+    sweeps = [_window([1.0, 2.0]), averaged, _window([1.0, 2.0])]
+    # per pass: 4, 4 x 1.5 = 6 and 8: the median 6; the averaged window holds it over 4
+    assert pooled_by_bias(sweeps, [4.0, 1.5, 8.0]) == [6.0, 1.5, 6.0]
+
+
 def test_a_window_alone_at_its_bias_keeps_its_own() -> None:
     assert pooled_by_bias([_window([0.1]), _window([0.2])], [3.0, 5.0]) == [3.0, 5.0]
 

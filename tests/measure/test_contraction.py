@@ -9,6 +9,7 @@ ended at 18 mHz; it measured no local design.
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 from typing import Any
 
@@ -52,8 +53,9 @@ def test_the_rate_decides() -> None:
 
 def test_a_window_that_does_not_resolve_its_split_from_the_acceptance_gives_no_rate() -> None:
     # 0.93 -> 1.13 mHz, acceptance 1 mHz: "did not fall", unless the latest window's 95 %
-    # interval (0-2.65 mHz) reaches down to the acceptance: then the rate is the noise's
+    # interval (0.21-2.06 mHz) reaches down to the acceptance: then the rate is the noise's
     assert too_slow(0.00093, 0.00113, 5, 0.001) is not None
+    assert too_slow(0.00093, 0.00113, 5, 0.001, low_hz=0.00021) is None
     assert too_slow(0.00093, 0.00113, 5, 0.001, low_hz=0.0) is None
     assert too_slow(0.00093, 0.00113, 5, 0.001, low_hz=0.001) is None  # reaches it exactly
     # a window resolved over the acceptance reads the rate as before
@@ -240,7 +242,7 @@ def test_a_split_risen_inside_its_windows_noise_is_verified_again_without_a_desi
     history = [h for h in result.history if h.measured_split_ci_hz is not None]
     rises = [
         (a, b)
-        for a, b in zip(history, history[1:])
+        for a, b in itertools.pairwise(history)
         if b.measured_split_hz > max(a.measured_split_hz, 0.002)
         and b.measured_split_ci_hz[0] <= 0.002  # type: ignore[index]
     ]
