@@ -80,7 +80,7 @@ class LeanProtocol(Protocol):
         #: With ``probe``, the run's first look at the band is a probe (``measure.locating``);
         #: whether it found the bench quiet decides the first design and the scouts' floor.
         self.quiet, self.scout_plan = False, self.locate_plan
-        #: The probe showed both modes: scouts step as it did, a sweep that misses them tries it.
+        #: The probe showed both modes: scouts step as it did; one missing them tries its band.
         self.probe_stood = False
         #: Which electrodes are tuned: a pair, or every one (:mod:`sysid_core.run.electrodes`).
         self.electrodes = Electrodes(ctx, self.known, self._learn)
