@@ -43,7 +43,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-__all__ = ["Costs", "too_slow", "verifications_needed"]
+__all__ = ["Costs", "too_slow", "unresolved", "verifications_needed"]
 
 
 @dataclass(frozen=True)
@@ -90,6 +90,23 @@ def verifications_needed(last_hz: float, split_hz: float, acceptance_hz: float) 
     return float(math.ceil(math.log(acceptance_hz / split_hz) / math.log(rate) - 1e-9))
 
 
+def unresolved(
+    last_hz: float | None, split_hz: float, acceptance_hz: float, low_hz: float | None
+) -> str | None:
+    """One line for the progress when the latest split gives no rate, else None.
+
+    The split is over the acceptance but the lower end of its window's 95 % interval
+    (``low_hz``) is not (module docstring): the next verification, not a design, resolves it.
+    """
+    if last_hz is None or low_hz is None or split_hz <= acceptance_hz or low_hz > acceptance_hz:
+        return None
+    return (
+        f"the verified split went from {last_hz * 1e3:.3g} to {split_hz * 1e3:.3g} mHz, but its "
+        f"window's 95 % interval reaches down to {low_hz * 1e3:.3g} mHz (acceptance "
+        f"{acceptance_hz * 1e3:.3g} mHz): no rate to read; verifying the next answer"
+    )
+
+
 def too_slow(
     last_hz: float | None,
     split_hz: float,
@@ -128,7 +145,7 @@ def too_slow(
     """
     if last_hz is None or left < 1 or last_hz <= 0 or split_hz <= acceptance_hz:
         return None
-    if low_hz is not None and low_hz <= acceptance_hz:  # unresolved: no rate to read
+    if unresolved(last_hz, split_hz, acceptance_hz, low_hz) is not None:
         return None
     fell = f"the verified split fell from {last_hz * 1e3:.3g} to {split_hz * 1e3:.3g} mHz"
     needed = verifications_needed(last_hz, split_hz, acceptance_hz)

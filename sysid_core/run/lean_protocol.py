@@ -20,7 +20,7 @@ import xarray as xr
 from sysid_core.clock.benchtime import settle as settle_s
 from sysid_core.data.schema import point_times
 from sysid_core.errors import SysidError
-from sysid_core.measure.contraction import Costs, too_slow
+from sysid_core.measure.contraction import Costs, too_slow, unresolved
 from sysid_core.measure.evidence import WindowAssessment
 from sysid_core.measure.information import measuring_order
 from sysid_core.measure.knowledge import LEVEL_SHARE, Knowledge
@@ -295,15 +295,13 @@ class LeanProtocol(Protocol):
         Verifying alone must be the quicker way to the acceptance at the rate the split fell,
         priced on the bench clock (:func:`~sysid_core.measure.contraction.too_slow`); on a run
         that does not track the drift, the model of all sweeps must also reproduce the verified
-        modes (:func:`~sysid_core.measure.lean.explained_gap`). With None comes the fit of all
-        sweeps.
+        modes (:func:`~sysid_core.measure.lean.explained_gap`); with None, the fit of all sweeps.
         """
         if self.last_verified is None:
             return None, None
         (vb, vf), ctx = self.last_verified, self.ctx
-        # the rate of two answers of models anchored on a window: the first answer's rate says
-        # how far the first design's law carried over the whole first step, not what a model
-        # holding a sweep at the bias it steps from will do next (contraction module)
+        # the rate of two answers of models anchored on a window, not the first answer's: that
+        # one carried the first design's law over the whole first step (contraction module)
         last = self.splits[-2] if len(self.splits) > 1 else None
         try:  # the local design's sweeps it would measure, priced like the verification's
             law, radius = ctx.config.model.stiffness, LOCAL_RADIUS * ctx.step(it)
@@ -319,6 +317,8 @@ class LeanProtocol(Protocol):
         model, notes = ctx.fitter.fit(union)
         f = model.modal(vb[ctx.space.index]).frequencies_hz
         if tracking or (gap := explained_gap(f, vf)) is None:
+            if note := unresolved(last, split, ctx.config.tuning.acceptance_hz, self.low):
+                ctx.say(f"iteration {it}: {note}")
             return None, (union, model, notes)
         n = len(self.known)
         return f"a model of all {n} sweeps misses the verified modes by {gap * 1e3:.3g} mHz", None

@@ -21,7 +21,7 @@ from truths import degenerate_config
 from sysid_core import tune
 from sysid_core.clock.runclock import stamps
 from sysid_core.data.schema import load_dataset
-from sysid_core.measure.contraction import Costs, too_slow, verifications_needed
+from sysid_core.measure.contraction import Costs, too_slow, unresolved, verifications_needed
 from sysid_core.measure.fitter import TREND_SPAN_S
 from sysid_core.plugin.registry import get_registry
 
@@ -60,6 +60,13 @@ def test_a_window_that_does_not_resolve_its_split_from_the_acceptance_gives_no_r
     assert too_slow(0.00093, 0.00113, 5, 0.001, low_hz=0.001) is None  # reaches it exactly
     # a window resolved over the acceptance reads the rate as before
     assert too_slow(0.010, 0.020, 3, 0.002, low_hz=0.015) is not None
+    line = unresolved(0.00071, 0.00208, 0.002, 0.00045)
+    assert line is not None and "0.71 to 2.08 mHz" in line and "down to 0.45 mHz" in line
+    assert unresolved(0.00071, 0.0019, 0.002, 0.0) is None  # under the acceptance: nothing to say
+    assert unresolved(0.010, 0.020, 0.002, 0.015) is None  # resolved
+    assert (
+        unresolved(None, 0.020, 0.002, 0.0) is None and unresolved(0.01, 0.02, 0.002, None) is None
+    )
 
 
 @given(last=splits, split=splits, low=st.floats(0.0, 10.0), left=st.integers(1, 6))
@@ -248,6 +255,7 @@ def test_a_split_risen_inside_its_windows_noise_is_verified_again_without_a_desi
     ]
     assert rises, "\n".join(lines)  # the case: a rise the window does not resolve
     assert not any("did not fall" in line for line in lines), "\n".join(lines)
+    assert any("no rate to read; verifying the next answer" in line for line in lines)
     later = [d for d in sorted((tmp_path / "run").glob("iter*")) if d.name != "iter01"]
     assert later and not any(list(d.glob("exp*.nc")) for d in later)  # windows only
     f = device.true_modal_frequencies_hz(result.bias)
