@@ -97,13 +97,15 @@ def unresolved(
 
     The split is over the acceptance but the lower end of its window's 95 % interval
     (``low_hz``) is not (module docstring): the next verification, not a design, resolves it.
+    The lean protocol says it where the rate, were it read, would have asked for the design.
     """
     if last_hz is None or low_hz is None or split_hz <= acceptance_hz or low_hz > acceptance_hz:
         return None
     return (
         f"the verified split went from {last_hz * 1e3:.3g} to {split_hz * 1e3:.3g} mHz, but its "
         f"window's 95 % interval reaches down to {low_hz * 1e3:.3g} mHz (acceptance "
-        f"{acceptance_hz * 1e3:.3g} mHz): no rate to read; verifying the next answer"
+        f"{acceptance_hz * 1e3:.3g} mHz): no rate to read, no local design; verifying the next "
+        "answer"
     )
 
 

@@ -310,14 +310,14 @@ class LeanProtocol(Protocol):
             costs = Costs.of(ctx.cost_s, self.verify_points, missing)
         except SysidError:  # no local design there: the rate alone decides
             costs = None
-        split, union, tracking = float(vf[1] - vf[0]), self.known.union(), ctx.tracking
-        why = too_slow(last, split, ctx.left(), ctx.config.tuning.acceptance_hz, costs, self.low)
-        if why:
+        split, acceptance = float(vf[1] - vf[0]), ctx.config.tuning.acceptance_hz
+        why = too_slow(last, split, ctx.left(), acceptance, costs)  # the rate, were it read
+        if why and not (note := unresolved(last, split, acceptance, self.low)):
             return why, None
-        model, notes = ctx.fitter.fit(union)
+        model, notes = ctx.fitter.fit(union := self.known.union())
         f = model.modal(vb[ctx.space.index]).frequencies_hz
-        if tracking or (gap := explained_gap(f, vf)) is None:
-            if note := unresolved(last, split, ctx.config.tuning.acceptance_hz, self.low):
+        if ctx.tracking or (gap := explained_gap(f, vf)) is None:
+            if why:  # a design the rate would have asked for, declined: say why
                 ctx.say(f"iteration {it}: {note}")
             return None, (union, model, notes)
         n = len(self.known)
