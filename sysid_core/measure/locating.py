@@ -40,6 +40,7 @@ isolated).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from pathlib import Path
 
@@ -50,6 +51,7 @@ from sysid_core.clock.benchtime import stated_dwell
 from sysid_core.data.schema import measured_mask
 from sysid_core.device.capabilities import Capabilities
 from sysid_core.measure.evidence import WindowAssessment, noise_share
+from sysid_core.measure.lean import denser_plan, locate_plan
 from sysid_core.measure.sweeps import SweepPlan
 from sysid_core.measure.zoom import zoom_grid
 from sysid_core.model.fitted import FittedModel
@@ -62,6 +64,7 @@ __all__ = [
     "locate",
     "probe_first",
     "probe_points",
+    "verify_tries",
 ]
 
 #: A bench is quiet when the probe's noise is under this share of its response (the measured
@@ -99,6 +102,26 @@ def probe_points(locate_points: int) -> int:
     is judged quiet or not itself.
     """
     return max((int(locate_points) - 1) // PROBE_EVERY + 1, PROBE_MIN_POINTS)
+
+
+def verify_tries(
+    plan: SweepPlan, finest_hz: float, probe_stood: bool, locate_points: int
+) -> tuple[list[tuple[str, np.ndarray]], int]:
+    """The bands a verification's locating tries in turn, and the points of the denser band.
+
+    The band at the probe's step first when the run's probe showed both modes (``probe_stood``:
+    that step showed this gyro's modes on this bench, as after an identification sweep that
+    missed them), then the locating band of ``plan`` (the plan the verification follows), the
+    band four times as dense and the band at ``finest_hz`` (the run's ``resolution_hz``); each
+    one that does not show both modes is followed by windows around those its fit placed
+    (:func:`locate`).
+    """
+    denser = denser_plan(plan, finest_hz)
+    every = dataclasses.replace(plan, resolution_hz=finest_hz)
+    tries = [("", plan.band()), ("-locate4", denser.band()), ("-all", every.band())]
+    if probe_stood:
+        tries.insert(0, ("-probe", locate_plan(plan, probe_points(locate_points)).band()))
+    return tries, denser.band().size
 
 
 def bench_noise(sweep: xr.Dataset, model: FittedModel) -> float:

@@ -6,10 +6,11 @@ remount). So a run that starts from it measures one mode grid at its start bias,
 modes the model predicts there, and anchors the model on the latest sweeps
 (:func:`~sysid_core.identification.anchor.anchor`: a stiffness and damping offset and a gain per
 sweep) instead of locating the modes over the band and measuring a design. Each iteration then
-measures only its verification, while every verified split is at most
-:data:`PRIOR_CONTRACTION` of the one before and, shrinking at that rate, would reach the
-acceptance within the iterations left; once one is not, or a verification fails, the run
-goes on as one without a model (:class:`~sysid_core.run.lean_protocol.LeanProtocol`).
+measures only its verification while verifying is the quicker way to the acceptance at the rate
+the verified split falls, priced against the local design on the bench clock: the rule of a run
+without a model (:func:`~sysid_core.measure.contraction.too_slow`), a split that its window does
+not resolve giving no rate. Once it is not, or a verification fails, the run goes on as one
+without a model (:class:`~sysid_core.run.lean_protocol.LeanProtocol`), measuring the local design.
 """
 
 from __future__ import annotations
@@ -20,20 +21,17 @@ import xarray as xr
 from sysid_core.data.schema import concat_experiments, point_times
 from sysid_core.errors import ConfigError, DataError
 from sysid_core.identification.anchor import anchor
-from sysid_core.measure.contraction import too_slow
+from sysid_core.measure.contraction import Costs, too_slow, unresolved
 from sysid_core.measure.lean import ModeGuess, mode_grid
 from sysid_core.measure.sweeps import SweepPlan
 from sysid_core.measure.verification import Verification
 from sysid_core.model.fitted import FittedModel
 
-__all__ = ["PRIOR_BANDWIDTHS", "PRIOR_CONTRACTION", "PRIOR_WINDOWS", "PreviousModel", "check_prior"]
+__all__ = ["PRIOR_BANDWIDTHS", "PRIOR_WINDOWS", "PreviousModel", "check_prior"]
 
 #: The first sweep spans this many bandwidths of uncertainty around the modes the previous
 #: model predicts (the gyro may have moved since).
 PRIOR_BANDWIDTHS = 2.0
-#: Each verified split must be at most this fraction of the one before; else the run measures
-#: the local design.
-PRIOR_CONTRACTION = 0.5
 #: The latest sweeps that anchor the model.
 PRIOR_WINDOWS = 2
 
@@ -98,28 +96,40 @@ class PreviousModel:
         ds = concat_experiments(windows).sel(electrode=list(self.model.electrodes))
         return ds, model, found.sweeps
 
-    def judge(self, verification: Verification, left: int) -> str | None:
-        """Why the model no longer helps, or None: then the verification's sweep anchors next.
+    def judge(
+        self,
+        verification: Verification,
+        left: int,
+        costs: Costs | None = None,
+        low_hz: float | None = None,
+    ) -> tuple[str | None, str | None]:
+        """Why the model no longer helps (or None), and a line for the progress (or None).
 
-        It no longer helps when the verification failed, its split did not fall to
-        :data:`PRIOR_CONTRACTION` of the last one, or, falling at the rate it did, would still
-        be over the acceptance after the iterations left (a model whose law is off by a
-        third shrinks the split about 3 times per iteration: 1.58 Hz, 0.42, 0.15, 0.036 in
-        four iterations of the cloverleaf, where the local design reached 0.6 mHz;
-        :func:`~sysid_core.measure.contraction.too_slow`); ``left``: the iterations the run can
-        still start (the bench-time budget's, :meth:`sysid_core.run.context.RunContext.left`).
+        With no reason, the verification's sweep anchors the model next. The model no longer
+        helps when the verification failed, or when verifying its next answers is not the
+        quicker way to the acceptance at the rate the verified split fell
+        (:func:`~sysid_core.measure.contraction.too_slow`): the split did not fall, would still be
+        over the acceptance after the iterations left (``left``, the bench-time budget's,
+        :meth:`sysid_core.run.context.RunContext.left`), or the verifications it needs cost more
+        than the local design (its sweeps not measured yet, ``costs``) and one verification. A
+        model whose law is off by a third shrinks the split about 3 times per iteration (1.58 Hz,
+        0.42, 0.15, 0.036 in four iterations of the cloverleaf, where the local design reached
+        0.6 mHz). Where the latest window's 95 % interval reaches down to the acceptance
+        (``low_hz``), its split gives no rate and the model stays; the line says so where the
+        rate, were it read, would have ended it
+        (:func:`~sysid_core.measure.contraction.unresolved`).
         """
         split = verification.split_hz if verification.verified else None
-        last = self.last_split
-        if split is None or (last is not None and split > PRIOR_CONTRACTION * last):
-            seen = "not verified" if split is None else f"{split * 1e3:.3g} mHz"
-            return f"the model given did not bring the split down ({seen})"
-        slow = too_slow(last, split, left, self.acceptance_hz)
-        if slow is not None:
-            return f"the model given brings the split down too slowly: {slow}"
+        if split is None:
+            return "the model given did not bring the split down (not verified)", None
+        last, acceptance = self.last_split, self.acceptance_hz
+        slow = too_slow(last, split, left, acceptance, costs)  # the rate, were it read
+        note = unresolved(last, split, acceptance, low_hz) if slow else None
+        if slow and note is None:
+            return f"the model given no longer pays: {slow}", None
         self.last_split = split
         self.windows.append(verification.sweep)
-        return None
+        return None, note
 
 
 def check_prior(model: FittedModel, tuned: list[str]) -> None:

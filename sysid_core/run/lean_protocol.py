@@ -9,7 +9,6 @@ the answer of the nearest sweeps that meet it is the cheaper way (:meth:`LeanPro
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -36,7 +35,7 @@ from sysid_core.measure.lean import (
     scout_grid,
 )
 from sysid_core.measure.locating import locate as locate_modes
-from sysid_core.measure.locating import probe_first, probe_points
+from sysid_core.measure.locating import probe_first, probe_points, verify_tries
 from sysid_core.measure.motion import motion_allowance
 from sysid_core.measure.previous import PreviousModel
 from sysid_core.measure.sweeps import SweepPlan
@@ -208,14 +207,7 @@ class LeanProtocol(Protocol):
         return ver
 
     def _band(self, bias: np.ndarray, folder: Path) -> Band:
-        """A verification's locating at ``bias``: the band as the run's first look is located.
-
-        The band at the probe's step first when the run's probe showed both modes (as after an
-        identification sweep that missed them), then the locating band of the plan the
-        verification follows; where one does not show both modes, windows around those its fit
-        placed, the band four times as dense and the band at ``resolution_hz``
-        (:func:`~sysid_core.measure.locating.locate`).
-        """
+        """Locating at ``bias``: :func:`~sysid_core.measure.locating.verify_tries`."""
 
         def band(plan: SweepPlan, windows: list[WindowAssessment]) -> Found:
             found: list[Found] = []
@@ -225,15 +217,9 @@ class LeanProtocol(Protocol):
                 windows.append(found[-1][2])
                 return found[-1]
 
-            finest = self.ctx.plan.resolution_hz
-            denser = denser_plan(plan, finest)
-            every = dataclasses.replace(plan, resolution_hz=finest)
-            tries = [("", plan.band()), ("-locate4", denser.band()), ("-all", every.band())]
-            if self.probe_stood:  # the step that showed this gyro's modes on this bench
-                points = probe_points(self.ctx.config.experiment.locate_points)
-                tries.insert(0, ("-probe", locate_plan(plan, points).band()))
-            path = folder / "verify-band.nc"
-            locate_modes(sweep, self.ctx.say, path, tries, plan, denser.band().size)
+            points = self.ctx.config.experiment.locate_points
+            tries, dense = verify_tries(plan, self.ctx.plan.resolution_hz, self.probe_stood, points)
+            locate_modes(sweep, self.ctx.say, folder / "verify-band.nc", tries, plan, dense)
             return found[-1]
 
         return band
@@ -258,9 +244,14 @@ class LeanProtocol(Protocol):
             self.last_verified = (bias.copy(), np.asarray(ver.frequencies_hz, dtype=float))
             self.splits.append(float(ver.split_hz or 0.0))
             self.low = None if (ci := split_interval(ver.model)) is None else float(ci[0])
-        if self.previous is not None and (why := self.previous.judge(ver, self.ctx.left())):
-            self.ctx.say(f"{why}; measuring the local design from now on")
-            self.previous, self.local = None, True
+        if self.previous is not None:  # its next answer, or the local design there
+            costs = self._costs(self.known.epoch + 1, bias) if ver.verified else None
+            why, note = self.previous.judge(ver, self.ctx.left(), costs, self.low)
+            if why:
+                self.ctx.say(f"{why}; measuring the local design from now on")
+                self.previous, self.local = None, True
+            elif note:
+                self.ctx.say(f"iteration {self.known.epoch}: {note}")
 
     def _from_previous(
         self, it: int, bias: np.ndarray, folder: Path
@@ -302,14 +293,7 @@ class LeanProtocol(Protocol):
         (vb, vf), ctx = self.last_verified, self.ctx
         # the rate of two answers of models anchored on a window, not the first answer's: that
         # one carried the first design's law over the whole first step (contraction module)
-        last = self.splits[-2] if len(self.splits) > 1 else None
-        try:  # the local design's sweeps it would measure, priced like the verification's
-            law, radius = ctx.config.model.stiffness, LOCAL_RADIUS * ctx.step(it)
-            design, apart = ctx.design(vb, it), LEVEL_SHARE * ctx.step(it)
-            missing = len(self.known.completing(vb, radius, law, design, ctx.space.index, apart))
-            costs = Costs.of(ctx.cost_s, self.verify_points, missing)
-        except SysidError:  # no local design there: the rate alone decides
-            costs = None
+        last, costs = self.splits[-2] if len(self.splits) > 1 else None, self._costs(it, vb)
         split, acceptance = float(vf[1] - vf[0]), ctx.config.tuning.acceptance_hz
         why = too_slow(last, split, ctx.left(), acceptance, costs)  # the rate, were it read
         if why and not (note := unresolved(last, split, acceptance, self.low)):
@@ -322,6 +306,21 @@ class LeanProtocol(Protocol):
             return None, (union, model, notes)
         n = len(self.known)
         return f"a model of all {n} sweeps misses the verified modes by {gap * 1e3:.3g} mHz", None
+
+    def _costs(self, it: int, bias: np.ndarray) -> Costs | None:
+        """A verification's and the local design's costs at ``bias`` (``contraction.Costs``).
+
+        None where nothing prices them or there is no local design: the rate alone decides.
+        """
+        ctx, step = self.ctx, self.ctx.step(it)
+        try:
+            design, law = ctx.design(bias, it), ctx.config.model.stiffness
+            todo = self.known.completing(
+                bias, LOCAL_RADIUS * step, law, design, ctx.space.index, LEVEL_SHARE * step
+            )
+        except SysidError:
+            return None
+        return Costs.of(ctx.cost_s, self.verify_points, len(todo))
 
     def _reach(self, it: int, bias: np.ndarray, apart: float, todo: Sequence[int]) -> float:
         """The radius of the nearest sweeps that meet (6), if their fit is the cheaper way (or 0).
