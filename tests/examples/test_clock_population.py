@@ -93,3 +93,29 @@ def test_iterations_below_one_are_refused_with_the_value(
     assert exc.value.code == 2
     assert f"--iterations must be at least 1, got {value}" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_from_a_model_a_rise_inside_the_windows_noise_keeps_the_model(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Gyro 215 (22 kHz, 8 tones) from a previous model sits at its bench's floor: its windows
+    measure the split to about ±3 mHz against an acceptance of 1 mHz. Its verified split rises
+    inside that noise, which gives no rate: the run says so and verifies the model's next answer
+    instead of measuring the local design (the code before measured it after such a rise: 3.52 to
+    3.81 mHz, interval 0-10 mHz, in the study's run of four iterations)."""
+    script = _script(monkeypatch)
+    out = tmp_path / "pop"
+    argv = ["clock_population.py", "--gyro", "random", "--tones", "8", "--seeds", "215"]
+    argv += ["--from-model", "--iterations", "6", "--verbose", "--out", str(out)]
+    monkeypatch.setattr(sys, "argv", argv)
+    script.main()
+    (record,) = [json.loads(line) for line in (out / "runs.jsonl").read_text().splitlines()]
+    assert "error" not in record and record["iterations"] == 6
+    err = capsys.readouterr().err
+    assert "no rate to read, no local design; verifying the next answer" in err
+    assert "measuring the local design" not in err
+    # no design: each iteration's new biases are at most its last verification's (a design
+    # around the bias would add four)
+    summary = json.loads((out / "run215" / "summary.json").read_text())
+    assert max(len(h["experiments"]) for h in summary["history"]) == 1
+    assert record["true_end_split_hz"] < 0.002
