@@ -43,7 +43,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-__all__ = ["Costs", "too_slow", "unresolved", "verifications_needed"]
+__all__ = ["Costs", "design_or_not", "too_slow", "unresolved", "verifications_needed"]
 
 
 @dataclass(frozen=True)
@@ -166,3 +166,22 @@ def too_slow(
             f"{ratio:.2g} times the local design and one verification"
         )
     return None
+
+
+def design_or_not(
+    last_hz: float | None,
+    split_hz: float,
+    left: int,
+    acceptance_hz: float,
+    costs: Costs | None,
+    low_hz: float | None,
+) -> tuple[str | None, str | None]:
+    """Why the local design is measured now (or None), and why not where the rate asked (or None).
+
+    The first is :func:`too_slow`'s reason when the latest window resolves its split; the second
+    the :func:`unresolved` line when the rate, were it read, would have asked for the design but
+    the window does not resolve the split. At most one of the two is given.
+    """
+    why = too_slow(last_hz, split_hz, left, acceptance_hz, costs)  # the rate, were it read
+    note = unresolved(last_hz, split_hz, acceptance_hz, low_hz) if why else None
+    return (None, note) if note else (why, None)

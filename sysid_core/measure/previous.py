@@ -21,7 +21,7 @@ import xarray as xr
 from sysid_core.data.schema import concat_experiments, point_times
 from sysid_core.errors import ConfigError, DataError
 from sysid_core.identification.anchor import anchor
-from sysid_core.measure.contraction import Costs, too_slow, unresolved
+from sysid_core.measure.contraction import Costs, design_or_not
 from sysid_core.measure.lean import ModeGuess, mode_grid
 from sysid_core.measure.sweeps import SweepPlan
 from sysid_core.measure.verification import Verification
@@ -123,9 +123,8 @@ class PreviousModel:
         if split is None:
             return "the model given did not bring the split down (not verified)", None
         last, acceptance = self.last_split, self.acceptance_hz
-        slow = too_slow(last, split, left, acceptance, costs)  # the rate, were it read
-        note = unresolved(last, split, acceptance, low_hz) if slow else None
-        if slow and note is None:
+        slow, note = design_or_not(last, split, left, acceptance, costs, low_hz)
+        if slow:
             return f"the model given no longer pays: {slow}", None
         self.last_split = split
         self.windows.append(verification.sweep)

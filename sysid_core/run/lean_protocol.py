@@ -19,7 +19,7 @@ import xarray as xr
 from sysid_core.clock.benchtime import settle as settle_s
 from sysid_core.data.schema import point_times
 from sysid_core.errors import SysidError
-from sysid_core.measure.contraction import Costs, too_slow, unresolved
+from sysid_core.measure.contraction import Costs, design_or_not, too_slow
 from sysid_core.measure.evidence import WindowAssessment
 from sysid_core.measure.information import measuring_order
 from sysid_core.measure.knowledge import LEVEL_SHARE, Knowledge
@@ -295,13 +295,13 @@ class LeanProtocol(Protocol):
         # one carried the first design's law over the whole first step (contraction module)
         last, costs = self.splits[-2] if len(self.splits) > 1 else None, self._costs(it, vb)
         split, acceptance = float(vf[1] - vf[0]), ctx.config.tuning.acceptance_hz
-        why = too_slow(last, split, ctx.left(), acceptance, costs)  # the rate, were it read
-        if why and not (note := unresolved(last, split, acceptance, self.low)):
+        why, note = design_or_not(last, split, ctx.left(), acceptance, costs, self.low)
+        if why:
             return why, None
         model, notes = ctx.fitter.fit(union := self.known.union())
         f = model.modal(vb[ctx.space.index]).frequencies_hz
         if ctx.tracking or (gap := explained_gap(f, vf)) is None:
-            if why:  # a design the rate would have asked for, declined: say why
+            if note:  # a design the rate would have asked for, declined: say why
                 ctx.say(f"iteration {it}: {note}")
             return None, (union, model, notes)
         n = len(self.known)

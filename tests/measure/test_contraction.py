@@ -21,7 +21,13 @@ from truths import degenerate_config
 from sysid_core import tune
 from sysid_core.clock.runclock import stamps
 from sysid_core.data.schema import load_dataset
-from sysid_core.measure.contraction import Costs, too_slow, unresolved, verifications_needed
+from sysid_core.measure.contraction import (
+    Costs,
+    design_or_not,
+    too_slow,
+    unresolved,
+    verifications_needed,
+)
 from sysid_core.measure.fitter import TREND_SPAN_S
 from sysid_core.plugin.registry import get_registry
 
@@ -262,3 +268,14 @@ def test_a_split_risen_inside_its_windows_noise_is_verified_again_without_a_desi
     assert later and not any(list(d.glob("exp*.nc")) for d in later)  # windows only
     f = device.true_modal_frequencies_hz(result.bias)
     assert result.converged and f[1] - f[0] <= 0.002
+
+
+def test_design_or_not_gives_the_reason_or_the_line_never_both() -> None:
+    """0.93 → 1.13 mHz, acceptance 1 mHz: a rise asks for the design where its window resolves
+    it (95 % from 1.05 mHz) and gives the no-rate line where it does not (from 0.2 mHz)."""
+    why, note = design_or_not(0.00093, 0.00113, 5, 0.001, None, 0.00105)
+    assert why is not None and "did not fall" in why and note is None
+    why, note = design_or_not(0.00093, 0.00113, 5, 0.001, None, 0.0002)
+    assert why is None and note is not None and "no rate to read" in note
+    # a fast fall asks for nothing, resolved or not
+    assert design_or_not(0.050, 0.0011, 5, 0.001, None, 0.0002) == (None, None)
