@@ -28,6 +28,7 @@ just found is a fine mode grid whose uncertainty is their motion since.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 
 import numpy as np
 
@@ -52,6 +53,7 @@ __all__ = [
     "ANCHORS",
     "CORE_BANDWIDTHS",
     "DENSER",
+    "DESIGN_HALF_POINTS",
     "FINE_STEP",
     "LOCAL_RADIUS",
     "LOCATE_POINTS",
@@ -67,6 +69,7 @@ __all__ = [
     "denser_plan",
     "explained_gap",
     "following",
+    "learning_grids",
     "locate_plan",
     "mode_grid",
     "scout_grid",
@@ -92,6 +95,11 @@ SCOUT_MIN_POINTS = 8
 #: extra equations cannot average the noise away, so scouts keep 8 (the measurements, on both
 #: benches: docs/studies/dwells.md, "Scouts of six points on a quiet bench").
 QUIET_SCOUT_POINTS = 6
+#: A design's sweep around modes a law predicts (:func:`design_grid`) samples each at its centre
+#: and its core's edges, denser only to reach the scouts' floor: the fewest points that show an
+#: interior peak, all such a sweep needs (docs/studies/dwells.md, "Design sweeps at the scouts'
+#: floor").
+DESIGN_HALF_POINTS = 1
 #: Most points of a lean run's whole-band sweep (it only locates the modes); ``[experiment]
 #: locate_points`` sets it (31: less time, less accurate in the lab:
 #: docs/studies/bench-time-lab.md).
@@ -132,6 +140,30 @@ def scout_grid(guess: ModeGuess, plan: SweepPlan, quiet: bool = False) -> np.nda
     fewest = QUIET_SCOUT_POINTS if quiet else SCOUT_MIN_POINTS
     points = acquisition_grid(windows, plan.resolution_hz, plan.tones, fewest=fewest)
     return merge(points, 1e-9 * float(f.max()))
+
+
+def learning_grids(
+    guess: ModeGuess,
+    scout: bool,
+    plans: tuple[SweepPlan, SweepPlan],
+    quiet: bool = False,
+    cost_s: Callable[[int], float] | None = None,
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """What an identification experiment measures first around ``guess``, and then (or None).
+
+    A scout over ``plans[1]`` (:func:`scout_grid`) where the modes may have moved by an amount
+    nothing predicts (``scout``). Around modes a law predicts, the mode grid over ``plans[0]``
+    (:func:`~sysid_core.measure.modegrid.mode_grid`) with :data:`DESIGN_HALF_POINTS` points
+    on either side of each mode, denser only to reach the scouts' floor
+    (:data:`SCOUT_MIN_POINTS`; :data:`QUIET_SCOUT_POINTS` on a ``quiet`` bench): it only has to
+    show the modes, as a scout does, and a law carried to the answer gains nothing from a split
+    known better than the law's own error; then, if it does not show them, the whole mode grid.
+    """
+    if scout:
+        return scout_grid(guess, plans[1], quiet), None
+    least = QUIET_SCOUT_POINTS if quiet else SCOUT_MIN_POINTS
+    cheap = mode_grid(guess, plans[0], cost_s=cost_s, fewest=(least, DESIGN_HALF_POINTS))
+    return cheap, mode_grid(guess, plans[0], cost_s=cost_s)
 
 
 def locate_plan(plan: SweepPlan, points: int = LOCATE_POINTS) -> SweepPlan:

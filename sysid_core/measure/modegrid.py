@@ -285,17 +285,17 @@ def mode_grid(
     fine: bool = False,
     finest_hz: float | None = None,
     cost_s: Callable[[int], float] | None = None,
+    fewest: tuple[int, float] = (MIN_POINTS, MAX_HALF_POINTS),
 ) -> np.ndarray:
     """The points of a sweep around two modes whose frequencies are (roughly) known.
 
     Of the grids of the shapes of :data:`SHAPES` (:func:`shaped_grid`), each of which resolves
-    every mode as the evidence asks, the cheapest on the bench clock (``cost_s(points)``, what
-    the sweep costs; without it, its acquisitions with ``plan.tones``); of equally cheap ones,
-    the one whose points tell the most about the split per second
-    (:func:`~sysid_core.measure.information.split_information`). The first of :data:`SHAPES`
-    wins a tie.
+    every mode as the evidence asks, the cheapest on the bench clock (``cost_s(points)``; without
+    it, its acquisitions with ``plan.tones``); of equally cheap ones, the one whose points tell
+    the most about the split per second (:func:`~sysid_core.measure.information.split_information`;
+    the first of :data:`SHAPES` on a tie). ``fewest``: the floor of points, the most a mode's side.
     """
-    grids = [shaped_grid(guess, plan, resolve, fine, finest_hz, shape) for shape in SHAPES]
+    grids = [shaped_grid(guess, plan, resolve, fine, finest_hz, shape, fewest) for shape in SHAPES]
     costs = [sweep_cost(g.size, plan.tones, cost_s) for g in grids]
     cheapest: list[np.ndarray] = []  # the cheapest grids, each once, in the order of SHAPES
     for g, cost in zip(grids, costs, strict=True):
@@ -315,8 +315,9 @@ def shaped_grid(
     fine: bool = False,
     finest_hz: float | None = None,
     shape: GridShape = GridShape(),
+    fewest: tuple[int, float] = (MIN_POINTS, MAX_HALF_POINTS),
 ) -> np.ndarray:
-    """The mode grid of one shape.
+    """The mode grid of one shape (``fewest``: as :func:`mode_grid`).
 
     Around each mode ``±h`` with ``h = shape.core·bw + 2σ``, at a step of
     ``bw / POINTS_PER_BANDWIDTH`` or ``h / MAX_HALF_POINTS``, whichever is coarser; then the
@@ -342,15 +343,15 @@ def shaped_grid(
     resolve them.
     """
     plan = following(plan, guess, shape.core)
-    # MIN_POINTS, or fewer where whole acquisitions hold fewer (8 with eight tones); never more:
+    # the floor, or fewer where whole acquisitions hold fewer (8 with eight tones); never more:
     # a grid one point short of two tones' 12 would be made denser for a point that is free
-    fewest = min(MIN_POINTS, fewest_points(plan.tones))
-    points = np.linspace(*plan.band_hz, fewest)
+    fewest_n = min(fewest[0], fewest_points(plan.tones, fewest[0]))
+    points = np.linspace(*plan.band_hz, fewest_n)
     for k in range(DENSER_STEPS + 1):  # denser by 2^(1/4) at a time, at most 64 times
         dense = 2.0 ** (k / 4)
-        points_per_bw, max_half = POINTS_PER_BANDWIDTH * dense, MAX_HALF_POINTS * dense
+        points_per_bw, max_half = POINTS_PER_BANDWIDTH * dense, fewest[1] * dense
         candidate = _mode_points(guess, plan, points_per_bw, max_half, shape)
-        if candidate.size >= fewest:
+        if candidate.size >= fewest_n:
             points = candidate
             break
     else:
@@ -375,7 +376,7 @@ def shaped_grid(
         finer = _mode_points(guess, plan, points_per_bw, needed, shape)
         return finer if finer.size <= budget else points
     spill = points.size % plan.tones
-    if points.size - spill >= fewest and 0 < spill <= shape.anchors // 2:
+    if points.size - spill >= fewest_n and 0 < spill <= shape.anchors // 2:
         # a few points spill into one more acquisition: drop that many of the nearer anchors
         near = _nearer_anchors(points, guess, shape.core)[:spill]
         points = np.setdiff1d(points, near)

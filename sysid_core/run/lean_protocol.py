@@ -30,9 +30,9 @@ from sysid_core.measure.lean import (
     denser_plan,
     explained_gap,
     following,
+    learning_grids,
     locate_plan,
     mode_grid,
-    scout_grid,
 )
 from sysid_core.measure.locating import locate as locate_modes
 from sysid_core.measure.locating import probe_first, probe_points, verify_tries
@@ -356,7 +356,8 @@ class LeanProtocol(Protocol):
     def _learn(self, bias: np.ndarray, path: Path, first: np.ndarray | None = None) -> None:
         """Measure one identification experiment where its modes should be (``first``: here).
 
-        The band, a scout or a mode grid (:mod:`sysid_core.measure.lean`); one without both modes
+        The band, a scout, or around modes a law predicts the fewest points that show them, then
+        a mode grid (:func:`~sysid_core.measure.lean.learning_grids`). One without both modes
         is followed by the locating bands (:mod:`sysid_core.measure.locating`), the first look
         at the band by a probe of a quarter of its points (``[experiment] probe``).
         """
@@ -364,16 +365,14 @@ class LeanProtocol(Protocol):
         guess, scout = self.known.guess(bias, ctx.fitter.structure, ctx.fitter.model)
         plan = ctx.plan if guess is None else following(ctx.plan, guess)  # bands follow modes
         locating = self.locate_plan if plan is ctx.plan else locate_plan(plan, points)
-        locate = locating.band()
+        locate, grid = locating.band(), None
         if first is None and guess is None:
             first = locate
-        elif first is None and scout:
-            assert guess is not None
-            grid = scout_grid(guess, self.scout_plan, self.quiet)
-            first = locate if grid.size >= locate.size else grid
         elif first is None:
             assert guess is not None
-            first = mode_grid(guess, ctx.plan, cost_s=self._cost(True))
+            plans, cost = (ctx.plan, self.scout_plan), self._cost(True)
+            cheap, grid = learning_grids(guess, scout, plans, self.quiet, cost)
+            first = locate if cheap.size >= locate.size else cheap
         denser = denser_plan(locating, plan.resolution_hz).band()
         probe, probing = None, locate_plan(plan, probe_points(points))
         # the run's first look at the band, on a bench that may be quiet
@@ -385,6 +384,8 @@ class LeanProtocol(Protocol):
         tries = [("-locate", locate), ("-locate4", denser), ("-band", plan.band())]
         if probe is None and self.probe_stood and first is not locate:
             tries.insert(0, ("-probe", probing.band()))  # the step that showed them: first
+        if grid is not None and grid.size < locate.size:
+            tries.insert(0, ("-grid", grid))  # the modes the law predicts, resolved
         if probe is None:
             tries.insert(0, ("", first))
 

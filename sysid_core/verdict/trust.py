@@ -23,7 +23,9 @@ the run swept. Three rules keep the run from stepping where its data do not reac
   another point of a whole set of degenerate biases (more electrodes than the two goals
   need), or the law carried where no sweep measured it. The run takes the linearised step
   instead (no longer than ``bias_step``), which the data around the verified bias support,
-  and measures the local design there. How far it goes is a trust region
+  and measures the local design there, unless that step itself would cut the split by less
+  than :data:`DISAGREED` of it (the linearised law has no way down there: a step that keeps the
+  split where it is would be taken again and again). How far it goes is a trust region
   (:func:`trust_radius`): the local design's step at first, twice the last radius after a step
   to its edge whose measured split fell by at least three quarters of what the model predicted
   there, and the local design's step again after one whose split fell by less than a quarter.
@@ -153,6 +155,9 @@ def untrusted_step(
         return None
     step = linearised_step(model, b0, 1e-3 * bias_step)
     if not np.all(np.isfinite(step)) or jump <= BEYOND_LINEAR * float(np.max(np.abs(step))):
+        return None
+    now, after = (np.hypot(*split_vector_hz(model.M, model.stiffness(b))) for b in (b0, b0 + step))
+    if now - after < DISAGREED * now:  # no way down the law linearised here: no correction
         return None
     # no further than the local design reached
     step *= min(1.0, bias_step / max(float(np.max(np.abs(step))), 1e-300))

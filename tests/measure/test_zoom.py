@@ -65,7 +65,8 @@ def test_a_probe_that_misses_narrow_modes_is_followed_by_windows_not_the_band(
     points; 19 with 11 points) and the first answer's law is a guess: with 11-point scouts a
     true split of 0.95 mHz after 4 iterations (178 points), with 8 a window missed and a local
     design, 0.32 mHz after 5 (391 points; 514 since the probe takes 16 points, 6.6 Hz apart,
-    and its windows 34)."""
+    and its windows 34); with the design's sweeps around predicted modes at the scouts' floor
+    too, 0.17 mHz after 5 (226 points)."""
     out, device, result, lines = _gyro_112(tmp_path, {"probe": True}, iterations=5)
     assert (out / "iter01" / "exp0-zoom.nc").exists()
     assert not list(out.glob("iter01/*locate*.nc"))

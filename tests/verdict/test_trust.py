@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+from typing import cast
+
 import numpy as np
 import pytest
 from hypothesis import given
@@ -109,3 +112,32 @@ def test_a_model_that_predicts_its_steps_well_crosses_volts_in_a_few(
     assert fixed >= distance / START
     assert split <= ACCEPTANCE
     assert grown <= np.ceil(np.log2(distance / START + 1)) + 3 < fixed
+
+
+def _valley(b: np.ndarray) -> np.ndarray:
+    """A stiffness at 4.4 kHz whose split falls along ``b1 + b2`` to a least value of about
+    6 mHz (the off-diagonal part no bias reaches) on the line ``b1 + b2 = 3`` V."""
+    w0, x = (2 * np.pi * 4400.0) ** 2, 3.5e4 * (b[0] + b[1] - 3.0)
+    return w0 * np.eye(2) + np.array([[x, 200.0], [200.0, -x]])
+
+
+def test_a_linearised_law_with_no_way_down_takes_no_step() -> None:
+    """Where the split is least but not zero (a law that cannot make the modes degenerate
+    there), the linearised step is nothing and keeps the split where it is. A run that took it
+    would verify that split again and again (seen on a bench written outside the toolkit: 223
+    mHz for 300 iterations); an answer far from there is no correction the step could make,
+    and stands. From a bias where the law does fall, the step stays the linearised one, no
+    longer than the radius."""
+    model = cast(FittedModel, SimpleNamespace(M=np.eye(2), stiffness=_valley))
+    at = np.array([1.0, 2.0, 0.0])
+    answer = np.array([4.0, 2.0, 0.0])
+    latest = (6e-3, at)
+    assert (
+        untrusted_step(model, answer, latest, [0, 1], ACCEPTANCE, START, 10.0, local=True) is None
+    )
+    away = np.array([0.0, 2.0, 0.0])
+    stepped = untrusted_step(
+        model, answer, (0.1, away), [0, 1], ACCEPTANCE, START, 10.0, local=True
+    )
+    assert stepped is not None
+    assert np.max(np.abs(stepped - away)) == pytest.approx(START)
