@@ -95,10 +95,10 @@ SCOUT_MIN_POINTS = 8
 #: extra equations cannot average the noise away, so scouts keep 8 (the measurements, on both
 #: benches: docs/studies/dwells.md, "Scouts of six points on a quiet bench").
 QUIET_SCOUT_POINTS = 6
-#: A design's sweep around modes a law predicts (:func:`design_grid`) samples each at its centre
-#: and its core's edges, denser only to reach the scouts' floor: the fewest points that show an
-#: interior peak, all such a sweep needs (docs/studies/dwells.md, "Design sweeps at the scouts'
-#: floor").
+#: A design's sweep around modes a law predicts (:func:`learning_grids`) samples each at its
+#: centre and its core's edges, denser only to reach the scouts' floor: the fewest points that
+#: show an interior peak, all such a sweep needs (docs/studies/dwells.md, "Design sweeps at the
+#: scouts' floor").
 DESIGN_HALF_POINTS = 1
 #: Most points of a lean run's whole-band sweep (it only locates the modes); ``[experiment]
 #: locate_points`` sets it (31: less time, less accurate in the lab:
